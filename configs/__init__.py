@@ -1,0 +1,22 @@
+"""Task registry: ``pchc-train --task NAME`` looks tasks up here; each entry builds a fresh TaskConfig."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from pchc_rsl.configs.base import ACTOR_CLASSES, AlgorithmConfig, ModelConfig, RunnerConfig, TaskConfig
+from pchc_rsl.configs.toy import toy_task
+
+TASKS: dict[str, Callable[[], TaskConfig]] = {
+    "toy": toy_task,
+}
+
+
+def task_config(name: str) -> TaskConfig:
+    """A fresh config for task ``name``; unknown names list the known ones."""
+    if name not in TASKS:
+        raise ValueError(f"Unknown task '{name}'. Known tasks: {', '.join(sorted(TASKS))}.")
+    return TASKS[name]()
+
+
+__all__ = ["ACTOR_CLASSES", "AlgorithmConfig", "ModelConfig", "RunnerConfig", "TASKS", "TaskConfig", "task_config"]

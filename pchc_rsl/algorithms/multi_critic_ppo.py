@@ -1,0 +1,150 @@
+"""MultiCriticPPO: PPO with a task critic and one critic per objective, advantages combined by the preference."""
+
+from __future__ import annotations
+
+import torch
+from tensordict import TensorDict
+
+from rsl_rl.algorithms import PPO
+from rsl_rl.env import VecEnv
+from rsl_rl.extensions import resolve_rnd_config, resolve_symmetry_config
+from rsl_rl.models import MLPModel
+from rsl_rl.utils import resolve_class, resolve_obs_groups
+
+from pchc_rsl.storage import MultiCriticRolloutStorage
+
+
+class MultiCriticPPO(PPO):
+    """PPO with K = 1 + m value heads trained on ``extras["reward_groups"]`` ([N, K]: task, obj_1 .. obj_m).
+
+    Each critic gets its own GAE (with its own time-out bootstrap); each advantage is normalised over the
+    rollout, and the policy is trained on (the paper's Eq. for A^lambda)
+        A = A_task + sum_i lambda_i A_obj_i,
+    with lambda read from the stored preference observation of each transition.
+    Use it from any rsl-rl config: ``"algorithm": {"class_name": "pchc_rsl.algorithms:MultiCriticPPO", ...}``.
+    """
+
+    def __init__(
+        self,
+        actor: MLPModel,
+        critic: MLPModel,
+        storage: MultiCriticRolloutStorage,
+        preference_group: str = "preference",
+        reward_group_names: list[str] | None = None,
+        **kwargs,
+    ) -> None:
+        if kwargs.get("normalize_advantage_per_mini_batch"):
+            raise ValueError(
+                "MultiCriticPPO normalises each critic's advantage over the rollout before weighting them by "
+                "lambda; normalize_advantage_per_mini_batch=True would rescale the weighted sum. Set it to False."
+            )
+        super().__init__(actor, critic, storage, **kwargs)
+        self.preference_group = preference_group
+        self.num_critics = storage.num_critics
+        self.reward_group_names = reward_group_names or ["task"] + [f"obj_{i}" for i in range(1, self.num_critics)]
+        if len(self.reward_group_names) != self.num_critics:
+            raise ValueError(
+                f"reward_group_names {self.reward_group_names} must name all {self.num_critics} critics "
+                "(task first, then one per objective)."
+            )
+        self.return_stats: dict[str, float] = {}
+
+    def process_env_step(
+        self, obs: TensorDict, rewards: torch.Tensor, dones: torch.Tensor, extras: dict
+    ) -> None:
+        """Record one step; the per-critic rewards come from extras["reward_groups"], ``rewards`` is only logged."""
+        if "reward_groups" not in extras:
+            raise KeyError("MultiCriticPPO needs extras['reward_groups'] ([N, 1 + m]: task, then each objective).")
+        groups = extras["reward_groups"].to(self.device)
+        if groups.shape != (rewards.shape[0], self.num_critics):
+            raise ValueError(
+                f"extras['reward_groups'] has shape {list(groups.shape)}; expected [{rewards.shape[0]}, "
+                f"{self.num_critics}] (task + {self.num_critics - 1} objectives, as many as the preference has)."
+            )
+        self.transition.rewards = groups.clone()
+        self.transition.dones = dones
+        if self.rnd:
+            self.intrinsic_rewards = self.rnd.get_intrinsic_reward(obs)
+            self.transition.rewards[:, 0] += self.intrinsic_rewards  # curiosity is preference-invariant: task group
+        # Bootstrapping on time-outs, per critic: r_k += gamma * V_k(s_T)
+        if "time_outs" in extras:
+            time_outs = extras["time_outs"].to(self.device).unsqueeze(1).float()
+            self.transition.rewards += self.gamma * self.transition.values * time_outs
+        self.storage.add_transition(self.transition)
+        self.transition.clear()
+        self.actor.reset(dones)
+        self.critic.reset(dones)
+
+    def compute_returns(self, obs: TensorDict) -> None:
+        """Per-critic GAE, per-critic normalisation, then the preference-weighted sum."""
+        st = self.storage
+        critic_hidden_state = self.critic.get_hidden_state()
+        last_values = self.critic(obs).detach()
+        self.critic.reset(hidden_state=critic_hidden_state)
+        advantage = torch.zeros_like(last_values)  # [N, K]
+        for step in reversed(range(st.num_transitions_per_env)):
+            next_values = last_values if step == st.num_transitions_per_env - 1 else st.values[step + 1]
+            next_is_not_terminal = 1.0 - st.dones[step].float()  # [N, 1], broadcast over the K critics
+            # delta_k = r_k + gamma V_k(s') - V_k(s);  A_k = delta_k + gamma lam A_k(s')
+            delta = st.rewards[step] + next_is_not_terminal * self.gamma * next_values - st.values[step]
+            advantage = delta + next_is_not_terminal * self.gamma * self.lam * advantage
+            st.returns[step] = advantage + st.values[step]
+        advantages = st.returns - st.values  # [T, N, K]
+        # Normalise each critic's advantage over the rollout: A_k <- (A_k - mean_k) / std_k
+        flat = advantages.flatten(0, 1)
+        mean, std = flat.mean(dim=0), flat.std(dim=0)
+        normalised = (advantages - mean) / (std + 1e-8)
+        # A^lambda = A_task + sum_i lambda_i A_obj_i
+        lam = st.observations[self.preference_group].to(normalised.dtype)  # [T, N, m]
+        st.advantages = normalised[..., :1] + (lam * normalised[..., 1:]).sum(dim=-1, keepdim=True)
+        self._record_return_stats(mean, std)
+
+    def _record_return_stats(self, adv_mean: torch.Tensor, adv_std: torch.Tensor) -> None:
+        """Per-critic value error of the rollout's critic and raw advantage spread, logged with the losses."""
+        st = self.storage
+        value_error = (st.returns - st.values).pow(2).flatten(0, 1).mean(dim=0)
+        self.return_stats = {}
+        for k, name in enumerate(self.reward_group_names):
+            self.return_stats[f"value_error/{name}"] = value_error[k].item()
+            self.return_stats[f"advantage_std/{name}"] = adv_std[k].item()
+
+    def update(self) -> dict[str, float]:
+        loss_dict = super().update()
+        loss_dict.update(self.return_stats)
+        return loss_dict
+
+    @staticmethod
+    def construct_algorithm(obs: TensorDict, env: VecEnv, cfg: dict, device: str) -> MultiCriticPPO:
+        """Build actor, a critic with 1 + m outputs, the multi-critic storage and the algorithm.
+
+        Differs from PPO.construct_algorithm only in the critic width and the storage.
+        """
+        alg_class, alg_cfg = resolve_class(cfg["algorithm"])
+        actor_class, actor_cfg = resolve_class(cfg["actor"])
+        critic_class, critic_cfg = resolve_class(cfg["critic"])
+        default_sets = ["actor", "critic"]
+        if alg_cfg.get("rnd_cfg") is not None:
+            default_sets.append("rnd_state")
+        cfg["obs_groups"] = resolve_obs_groups(obs, cfg["obs_groups"], default_sets)
+        alg_cfg = resolve_rnd_config(alg_cfg, obs, cfg["obs_groups"], env)
+        alg_cfg = resolve_symmetry_config(alg_cfg, env)
+
+        preference_group = alg_cfg.get("preference_group", "preference")
+        if preference_group not in obs:
+            raise ValueError(
+                f"MultiCriticPPO reads lambda from the observation group '{preference_group}', which the environment "
+                f"does not provide (groups: {list(obs.keys())})."
+            )
+        num_critics = 1 + obs[preference_group].shape[-1]
+
+        actor: MLPModel = actor_class(obs, cfg["obs_groups"], "actor", env.num_actions, **actor_cfg).to(device)
+        print(f"Actor Model: {actor}")
+        alg_cfg.pop("share_cnn_encoders", None)
+        critic: MLPModel = critic_class(obs, cfg["obs_groups"], "critic", num_critics, **critic_cfg).to(device)
+        print(f"Critic Model: {critic}")
+        storage = MultiCriticRolloutStorage(
+            env.num_envs, cfg["num_steps_per_env"], obs, [env.num_actions], num_critics, device
+        )
+        alg = alg_class(actor, critic, storage, device=device, **alg_cfg, multi_gpu_cfg=cfg["multi_gpu"])
+        alg.compile(cfg.get("torch_compile_mode"))
+        return alg

@@ -1,0 +1,1 @@
+"""Command-line entry points: pchc-train, pchc-export-onnx."""

@@ -1,0 +1,57 @@
+"""pchc-train: train a preference-conditioned policy on a registered task."""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import os
+
+from pchc_rsl.configs import ACTOR_CLASSES, TASKS, task_config
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="pchc-train",
+        description="Train PCHC (MultiCriticPPO + PCI actor) on a task. Known tasks: " + ", ".join(sorted(TASKS)),
+    )
+    parser.add_argument("--task", required=True, help="task name: " + ", ".join(sorted(TASKS)))
+    parser.add_argument("--num-envs", type=int, help="parallel environments (default: the task's)")
+    parser.add_argument("--max-iterations", type=int, help="PPO iterations (default: the task's)")
+    parser.add_argument("--seed", type=int, help="random seed (default: the task's)")
+    parser.add_argument("--device", help="torch device, e.g. cpu or cuda:0 (default: the task's)")
+    parser.add_argument("--actor", choices=sorted(ACTOR_CLASSES), help="actor variant (default: pci)")
+    parser.add_argument("--log-dir", help="where checkpoints and TensorBoard events go (default: logs/TASK/DATE)")
+    parser.add_argument("--resume", metavar="CKPT", help="checkpoint to continue from")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> None:
+    args = build_parser().parse_args(argv)
+    try:
+        cfg = task_config(args.task)
+    except ValueError as error:
+        raise SystemExit(f"pchc-train: {error}")
+    if args.num_envs is not None:
+        cfg.num_envs = args.num_envs
+    if args.max_iterations is not None:
+        cfg.runner.max_iterations = args.max_iterations
+    if args.seed is not None:
+        cfg.seed = args.seed
+    if args.device is not None:
+        cfg.device = args.device
+    if args.actor is not None:
+        cfg.runner.actor.class_name = ACTOR_CLASSES[args.actor]
+    log_dir = args.log_dir or os.path.join(
+        "logs", cfg.name, datetime.datetime.now().strftime("%Y-%m-%d_%H-%M-%S")
+    )
+    from pchc_rsl.cli.common import make_runner
+
+    runner = make_runner(cfg, log_dir)
+    if args.resume:
+        runner.load(args.resume)
+    runner.learn(cfg.runner.max_iterations)
+    print(f"pchc-train: checkpoints and TensorBoard events in {log_dir}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,302 @@
+"""Preference-conditioned rsl-rl models: the PCI actor and the paper's ablations.
+
+All three are rsl_rl.models.MLPModel subclasses that any rsl-rl config can name by class_name:
+- ``PCIActor`` ("pchc_rsl.modules:PCIActor"): a history encoder and N_B experts mixed by the
+  preference-parameterised Beta (Dirichlet for m > 2) density at fixed expert positions (the paper's PCI).
+- ``GatedMoEActor``: the same experts routed by a learned softmax gate over [observation, lambda] ("w/o PCI").
+- ``PreferenceMLPModel``: a plain MLP on [observation, lambda] (the "concatenate lambda" baseline, and the
+  multi-critic's critic).
+
+The observation groups are concatenated and (optionally) normalised as rsl-rl does; the preference group is
+appended raw, never normalised, so lambda keeps its meaning on the simplex.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+
+import torch
+import torch.nn as nn
+from tensordict import TensorDict
+
+from rsl_rl.models import MLPModel
+from rsl_rl.modules import MLP, HiddenState
+from rsl_rl.utils import resolve_nn_activation
+
+from pchc_rsl.preference import expert_positions_on_simplex, routing_weights, simplex_lattice
+
+
+class PreferenceMLPModel(MLPModel):
+    """MLPModel whose input is [normalised observation groups, raw preference]; subclasses swap the head.
+
+    ``self.mlp`` maps the [N, obs_dim + m] latent to the output, so rsl-rl's forward, distributions and
+    normalisation updates work unchanged.
+    """
+
+    def __init__(
+        self,
+        obs: TensorDict,
+        obs_groups: dict[str, list[str]],
+        obs_set: str,
+        output_dim: int,
+        hidden_dims: tuple[int, ...] | list[int] = (256, 256, 256),
+        activation: str = "elu",
+        obs_normalization: bool = False,
+        distribution_cfg: dict | None = None,
+        preference_group: str = "preference",
+    ) -> None:
+        self.preference_group = preference_group
+        super().__init__(obs, obs_groups, obs_set, output_dim, hidden_dims, activation, obs_normalization,
+                         distribution_cfg)
+
+    def _get_obs_dim(self, obs: TensorDict, obs_groups: dict[str, list[str]], obs_set: str) -> tuple[list[str], int]:
+        groups = obs_groups[obs_set]
+        if self.preference_group not in groups:
+            raise ValueError(
+                f"{type(self).__name__} needs the preference group '{self.preference_group}' in obs_groups"
+                f"['{obs_set}'], got {groups}; e.g. obs_groups = {{'{obs_set}': ['policy', '{self.preference_group}']}}."
+            )
+        self.preference_dim = obs[self.preference_group].shape[-1]
+        active, obs_dim = super()._get_obs_dim(
+            obs, {obs_set: [g for g in groups if g != self.preference_group]}, obs_set
+        )
+        return active, obs_dim
+
+    def _get_latent_dim(self) -> int:
+        return self.obs_dim + self.preference_dim
+
+    def get_latent(
+        self, obs: TensorDict, masks: torch.Tensor | None = None, hidden_state: HiddenState = None
+    ) -> torch.Tensor:
+        """[N, obs_dim + m]: the normalised observation groups, then the raw preference."""
+        return torch.cat([super().get_latent(obs, masks, hidden_state), obs[self.preference_group]], dim=-1)
+
+    def _head_output_dim(self) -> int:
+        """Width of the head output: what the distribution consumes, or output_dim without one."""
+        dim = self.distribution.input_dim if self.distribution is not None else self.mlp[-1].out_features
+        if not isinstance(dim, int):
+            raise ValueError(
+                f"{type(self).__name__} supports distributions with a flat parameter vector (e.g. "
+                f"GaussianDistribution), got {type(self.distribution).__name__} with input_dim {dim}."
+            )
+        return dim
+
+    def as_onnx(self, verbose: bool = False) -> nn.Module:
+        """A deterministic two-input (obs, preference) copy for ONNX export."""
+        return PreferencePolicyExport(self)
+
+    def as_jit(self) -> nn.Module:
+        return PreferencePolicyExport(self)
+
+
+class PreferencePolicyExport(nn.Module):
+    """Deterministic inference copy of a PreferenceMLPModel: actions = head([normalise(obs), preference])."""
+
+    is_recurrent: bool = False
+    input_names = ["obs", "preference"]
+    output_names = ["actions"]
+
+    def __init__(self, model: PreferenceMLPModel) -> None:
+        super().__init__()
+        self.obs_normalizer = copy.deepcopy(model.obs_normalizer)
+        self.mlp = copy.deepcopy(model.mlp)
+        if model.distribution is not None:
+            self.deterministic_output = model.distribution.as_deterministic_output_module()
+        else:
+            self.deterministic_output = nn.Identity()
+        self.obs_dim = model.obs_dim
+        self.preference_dim = model.preference_dim
+
+    def forward(self, obs: torch.Tensor, preference: torch.Tensor) -> torch.Tensor:
+        x = torch.cat([self.obs_normalizer(obs), preference], dim=-1)
+        return self.deterministic_output(self.mlp(x))
+
+    def get_dummy_inputs(self) -> tuple[torch.Tensor, torch.Tensor]:
+        return torch.zeros(2, self.obs_dim), torch.full((2, self.preference_dim), 1.0 / self.preference_dim)
+
+
+class BatchedExperts(nn.Module):
+    """E independent MLPs evaluated as batched matrix products: [N, in] -> [E, N, out].
+
+    One einsum/baddbmm per layer instead of E small Linear calls: fewer kernels and fewer ONNX nodes.
+    Each expert is initialised like nn.Linear (uniform in +-1/sqrt(fan_in)).
+    """
+
+    def __init__(self, num_experts: int, input_dim: int, output_dim: int, hidden_dims, activation: str) -> None:
+        super().__init__()
+        dims = [input_dim, *hidden_dims, output_dim]
+        self.weights = nn.ParameterList()
+        self.biases = nn.ParameterList()
+        for fan_in, fan_out in zip(dims[:-1], dims[1:]):
+            bound = 1.0 / math.sqrt(fan_in)
+            self.weights.append(nn.Parameter(torch.empty(num_experts, fan_in, fan_out).uniform_(-bound, bound)))
+            self.biases.append(nn.Parameter(torch.empty(num_experts, 1, fan_out).uniform_(-bound, bound)))
+        self.activation = resolve_nn_activation(activation)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        h = torch.einsum("ni,eio->eno", x, self.weights[0]) + self.biases[0]
+        for weight, bias in zip(self.weights[1:], self.biases[1:]):
+            h = torch.baddbmm(bias, self.activation(h), weight)
+        return h
+
+
+class HistoryExpertsHead(nn.Module):
+    """Shared body of the mixture heads: encode the history frames, run the experts on [current, latent].
+
+    The history group is laid out newest first, [s_t, s_{t-1}, ..., s_{t-H}], each frame of equal width; it sits at
+    columns [start, stop) of the normalised observation. Everything outside the past frames (the current frame and
+    any other group) is the experts' "current observation".
+    """
+
+    def __init__(self, obs_dim: int, history: tuple[int, int, int], output_dim: int, num_experts: int,
+                 expert_hidden_dims, encoder_hidden_dims, latent_dim: int, activation: str) -> None:
+        super().__init__()
+        start, stop, history_length = history
+        frame_dim = (stop - start) // (history_length + 1)
+        self.obs_dim = obs_dim
+        self.past_start, self.past_stop = start + frame_dim, stop
+        past_dim = self.past_stop - self.past_start
+        self.encoder = MLP(past_dim, latent_dim, encoder_hidden_dims, activation) if past_dim > 0 else None
+        current_dim = obs_dim - past_dim + (latent_dim if past_dim > 0 else 0)
+        self.features_dim = current_dim
+        self.experts = BatchedExperts(num_experts, current_dim, output_dim, expert_hidden_dims, activation)
+
+    def features(self, x: torch.Tensor) -> torch.Tensor:
+        """[N, obs_dim + m] -> [N, features]: current observation and history latent (lambda excluded)."""
+        parts = [x[:, : self.past_start], x[:, self.past_stop : self.obs_dim]]
+        if self.encoder is not None:
+            parts.append(self.encoder(x[:, self.past_start : self.past_stop]))
+        return torch.cat(parts, dim=-1)
+
+    def mix(self, features: torch.Tensor, weights: torch.Tensor) -> torch.Tensor:
+        """Weighted sum of the expert outputs: weights [N, E] -> [N, out]."""
+        return torch.einsum("ne,eno->no", weights, self.experts(features))
+
+
+class PCIHead(HistoryExpertsHead):
+    """Experts routed by routing_weights(lambda): no learned gate, the preference alone decides the mixture."""
+
+    def __init__(self, positions: torch.Tensor, alpha0: float, beta0: float | None, scale: float, **kwargs) -> None:
+        super().__init__(num_experts=len(positions), **kwargs)
+        self.register_buffer("positions", positions)  # [E, m] points on the simplex
+        self.alpha0, self.beta0, self.scale = alpha0, beta0, scale
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        lam = x[:, self.obs_dim :]
+        weights = routing_weights(lam, self.positions, self.alpha0, self.beta0, self.scale)
+        return self.mix(self.features(x), weights)
+
+
+class GatedHead(HistoryExpertsHead):
+    """Experts routed by a learned softmax gate over [features, lambda] (the paper's "w/o PCI" ablation)."""
+
+    def __init__(self, preference_dim: int, gate_hidden_dims, **kwargs) -> None:
+        super().__init__(**kwargs)
+        num_experts = self.experts.weights[0].shape[0]
+        self.gate = MLP(self.features_dim + preference_dim, num_experts, gate_hidden_dims, kwargs["activation"])
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        features = self.features(x)
+        weights = torch.softmax(self.gate(torch.cat([features, x[:, self.obs_dim :]], dim=-1)), dim=-1)
+        return self.mix(features, weights)
+
+
+class _MixtureActor(PreferenceMLPModel):
+    """Common constructor of the mixture actors: locate the history frames, then build the head."""
+
+    def __init__(
+        self,
+        obs: TensorDict,
+        obs_groups: dict[str, list[str]],
+        obs_set: str,
+        output_dim: int,
+        hidden_dims: tuple[int, ...] | list[int] = (256, 128),
+        activation: str = "elu",
+        obs_normalization: bool = False,
+        distribution_cfg: dict | None = None,
+        preference_group: str = "preference",
+        history_group: str = "policy",
+        history_length: int = 5,
+        encoder_hidden_dims: tuple[int, ...] | list[int] = (128,),
+        history_latent_dim: int = 32,
+    ) -> None:
+        # The base builds a throwaway MLP of hidden_dims; keep it tiny, the experts get hidden_dims below.
+        super().__init__(obs, obs_groups, obs_set, output_dim, [1], activation, obs_normalization,
+                         distribution_cfg, preference_group)
+        self.head_kwargs = dict(
+            obs_dim=self.obs_dim,
+            history=self._locate_history(obs, history_group, history_length),
+            output_dim=self._head_output_dim(),
+            expert_hidden_dims=list(hidden_dims),
+            encoder_hidden_dims=list(encoder_hidden_dims),
+            latent_dim=history_latent_dim,
+            activation=activation,
+        )
+
+    def _locate_history(self, obs: TensorDict, group: str, history_length: int) -> tuple[int, int, int]:
+        """Columns [start, stop) of the history group in the concatenated observation, and H."""
+        if group not in self.obs_groups:
+            raise ValueError(f"history_group '{group}' is not among the model's groups {self.obs_groups}.")
+        start = 0
+        for g in self.obs_groups:
+            if g == group:
+                break
+            start += obs[g].shape[-1]
+        width = obs[group].shape[-1]
+        if history_length < 0 or width % (history_length + 1) != 0:
+            raise ValueError(
+                f"Group '{group}' has {width} columns, not a multiple of history_length + 1 = {history_length + 1} "
+                "frames; set history_length to the number of past frames the environment stacks."
+            )
+        return start, start + width, history_length
+
+
+class PCIActor(_MixtureActor):
+    """The PCI actor: N_B experts at fixed simplex positions, mixed by the preference-parameterised density.
+
+    hidden_dims are each expert's hidden layers. ``num_experts`` experts sit on the simplex lattice of resolution
+    num_experts - 1 for two objectives (0, .25, .5, .75, 1 by default); for m objectives the default lattice of
+    resolution ``lattice_resolution`` is used, or pass ``expert_positions`` ([E] for m = 2, else [E, m]).
+    """
+
+    def __init__(
+        self,
+        obs: TensorDict,
+        obs_groups: dict[str, list[str]],
+        obs_set: str,
+        output_dim: int,
+        num_experts: int = 5,
+        expert_positions: list | None = None,
+        lattice_resolution: int = 2,
+        alpha0: float = 1.0,
+        beta0: float | None = None,
+        routing_scale: float = 10.0,
+        **kwargs,
+    ) -> None:
+        super().__init__(obs, obs_groups, obs_set, output_dim, **kwargs)
+        m = self.preference_dim
+        if expert_positions is not None:
+            positions = expert_positions_on_simplex(expert_positions, m)
+        elif m == 2:
+            positions = simplex_lattice(2, num_experts - 1)
+        else:
+            positions = simplex_lattice(m, lattice_resolution)
+        self.mlp = PCIHead(positions, alpha0, beta0, routing_scale, **self.head_kwargs)
+
+
+class GatedMoEActor(_MixtureActor):
+    """The "w/o PCI" ablation: the PCI actor's experts routed by a learned gate instead of the Beta density."""
+
+    def __init__(
+        self,
+        obs: TensorDict,
+        obs_groups: dict[str, list[str]],
+        obs_set: str,
+        output_dim: int,
+        num_experts: int = 5,
+        gate_hidden_dims: tuple[int, ...] | list[int] = (64,),
+        **kwargs,
+    ) -> None:
+        super().__init__(obs, obs_groups, obs_set, output_dim, **kwargs)
+        self.mlp = GatedHead(self.preference_dim, list(gate_hidden_dims), num_experts=num_experts, **self.head_kwargs)

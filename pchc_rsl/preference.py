@@ -1,0 +1,134 @@
+"""Preference vectors lambda on the probability simplex, and the PCI routing rule.
+
+A preference lambda in R^m has lambda_i >= 0 and sum_i lambda_i = 1. It weighs the m objectives in the
+advantage (MultiCriticPPO) and routes the experts of the PCI actor (``routing_weights``).
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Sequence
+
+import torch
+
+SUM_TOLERANCE = 1e-5
+
+
+def sample_preferences(
+    num: int, num_objectives: int, concentration: float = 1.0, generator: torch.Generator | None = None
+) -> torch.Tensor:
+    """Draw ``num`` preferences from a symmetric Dirichlet(concentration). Returns [num, num_objectives].
+
+    Independent Gamma(concentration) samples divided by their sum are Dirichlet distributed.
+    """
+    if num_objectives < 2:
+        raise ValueError(f"A preference needs at least 2 objectives, got num_objectives={num_objectives}.")
+    if concentration <= 0:
+        raise ValueError(f"The Dirichlet concentration must be > 0, got {concentration}.")
+    device = generator.device if generator is not None else "cpu"
+    # torch's Gamma sampler takes no generator: draw a seed from the generator and sample under a forked CPU RNG,
+    # so the result depends only on the generator and the global RNG is left untouched.
+    seed = int(torch.randint(0, 2**62, (1,), generator=generator, device=device).item())
+    with torch.random.fork_rng(devices=[]):
+        torch.manual_seed(seed)
+        gamma = torch.distributions.Gamma(
+            torch.full((num, num_objectives), float(concentration)), torch.ones(num, num_objectives)
+        ).sample()
+    lam = gamma / gamma.sum(dim=-1, keepdim=True)
+    return lam.to(device)
+
+
+def validate_preference(lam: torch.Tensor | Sequence[float], num_objectives: int) -> torch.Tensor:
+    """Check that ``lam`` ([m] or [N, m]) lies on the simplex; return it as a float tensor or raise ValueError."""
+    t = torch.as_tensor(lam, dtype=torch.float32)
+    if t.dim() not in (1, 2) or t.shape[-1] != num_objectives:
+        raise ValueError(
+            f"A preference must have shape [{num_objectives}] or [N, {num_objectives}] (one weight per objective), "
+            f"got shape {list(t.shape)}: {t.tolist()}."
+        )
+    if not torch.isfinite(t).all():
+        raise ValueError(f"A preference must be finite, got {t.tolist()} (NaN or inf).")
+    if (t < 0).any():
+        raise ValueError(f"Preference weights must be >= 0, got {t.tolist()}.")
+    sums = t.sum(dim=-1)
+    if ((sums - 1.0).abs() > SUM_TOLERANCE).any():
+        raise ValueError(
+            f"Preference weights must sum to 1 (within {SUM_TOLERANCE}), got sums {sums.tolist()} for {t.tolist()}; "
+            "divide by the sum to normalise."
+        )
+    return t
+
+
+def simplex_lattice(num_objectives: int, resolution: int) -> torch.Tensor:
+    """All points of the simplex whose coordinates are multiples of 1/resolution. Returns [E, m].
+
+    For m = 2 and resolution 4 these are the paper's expert positions x_j = 0, .25, .5, .75, 1 (first coordinate),
+    listed in increasing x_j.
+    """
+    if resolution < 1:
+        raise ValueError(f"The lattice resolution must be >= 1, got {resolution}.")
+    points = [
+        c for c in itertools.product(range(resolution + 1), repeat=num_objectives - 1) if sum(c) <= resolution
+    ]
+    lattice = torch.tensor([[*c, resolution - sum(c)] for c in points], dtype=torch.float32) / resolution
+    return lattice
+
+
+def expert_positions_on_simplex(positions: torch.Tensor | Sequence, num_objectives: int) -> torch.Tensor:
+    """Turn expert positions into points on the simplex, [E, m].
+
+    Two objectives accept scalar positions x_j in [0, 1] (the Beta variable), mapped to (x_j, 1 - x_j).
+    """
+    p = torch.as_tensor(positions, dtype=torch.float32)
+    if p.dim() == 1:
+        if num_objectives != 2:
+            raise ValueError(
+                f"Scalar expert positions only make sense for 2 objectives; with {num_objectives} give [E, "
+                f"{num_objectives}] points on the simplex."
+            )
+        p = torch.stack([p, 1.0 - p], dim=-1)
+    if p.dim() != 2 or p.shape[1] != num_objectives:
+        raise ValueError(f"Expert positions must be [E] (2 objectives) or [E, {num_objectives}], got {list(p.shape)}.")
+    if (p < 0).any() or ((p.sum(-1) - 1).abs() > SUM_TOLERANCE).any():
+        raise ValueError(f"Expert positions must lie on the simplex, got {p.tolist()}.")
+    return p
+
+
+def routing_weights(
+    lam: torch.Tensor,
+    positions: torch.Tensor,
+    alpha0: float = 1.0,
+    beta0: float | None = None,
+    scale: float = 10.0,
+    eps: float = 1e-6,
+) -> torch.Tensor:
+    """Normalised density of the preference-parameterised Beta/Dirichlet at the expert positions. Returns [N, E].
+
+    Args:
+        lam: [N, m] preferences.
+        positions: [E] Beta positions x_j (m = 2) or [E, m] points on the simplex.
+        alpha0: base concentration of objective 1 (of every objective when m > 2).
+        beta0: base concentration of objective 2 when m = 2 (defaults to alpha0).
+        scale: s, how sharply the preference concentrates the density.
+        eps: positions are clamped into [eps, 1 - eps] so the log stays finite at the simplex boundary.
+
+    Two objectives (the paper): alpha = alpha0 + lam_1 s, beta = beta0 + lam_2 s and
+    w_j ∝ x_j^(alpha-1) (1-x_j)^(beta-1) / B(alpha, beta). B cancels when normalising over j, so
+        w = softmax_j((alpha - 1) log x_j + (beta - 1) log(1 - x_j)),
+    which is exact, stable and exportable (no lgamma). With m objectives the Dirichlet density with
+    concentrations c_i = c0_i + lam_i s gives w = softmax_j(sum_i (c_i - 1) log p_ji), equal to the Beta rule
+    for m = 2 with p_j = (x_j, 1 - x_j).
+    """
+    m = lam.shape[-1]
+    points = expert_positions_on_simplex(positions, m).to(lam.device, lam.dtype) if positions.dim() == 1 else positions
+    if m == 2:
+        base = torch.tensor([alpha0, alpha0 if beta0 is None else beta0], device=lam.device, dtype=lam.dtype)
+    else:
+        if beta0 is not None and beta0 != alpha0:
+            raise ValueError(f"With {m} objectives every objective uses alpha0; got beta0={beta0} != alpha0={alpha0}.")
+        base = torch.full((m,), float(alpha0), device=lam.device, dtype=lam.dtype)
+    concentration = base + lam * scale  # [N, m]
+    log_points = points.to(lam.device, lam.dtype).clamp(eps, 1.0 - eps).log()  # [E, m]
+    # log of the unnormalised density, sum_i (c_i - 1) log p_ji: [N, m] @ [m, E]
+    logits = (concentration - 1.0) @ log_points.T
+    return torch.softmax(logits, dim=-1)
