@@ -4,7 +4,14 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from pchc_rsl.configs.base import ACTOR_CLASSES, AlgorithmConfig, ModelConfig, RunnerConfig, TaskConfig
+from pchc_rsl.configs.base import (
+    ACTOR_CLASSES,
+    AlgorithmConfig,
+    ModelConfig,
+    RunnerConfig,
+    TaskConfig,
+    select_actor,
+)
 from pchc_rsl.configs.toy import toy_task
 
 TASKS: dict[str, Callable[[], TaskConfig]] = {
@@ -19,4 +26,5 @@ def task_config(name: str) -> TaskConfig:
     return TASKS[name]()
 
 
-__all__ = ["ACTOR_CLASSES", "AlgorithmConfig", "ModelConfig", "RunnerConfig", "TASKS", "TaskConfig", "task_config"]
+__all__ = ["ACTOR_CLASSES", "AlgorithmConfig", "ModelConfig", "RunnerConfig", "TASKS", "TaskConfig", "select_actor",
+           "task_config"]

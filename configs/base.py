@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 import dataclasses
+import inspect
 from dataclasses import dataclass, field
 from typing import Any
+
+from rsl_rl.utils import resolve_callable
 
 ACTOR_CLASSES = {
     "pci": "pchc_rsl.modules:PCIActor",
@@ -30,6 +33,8 @@ class AlgorithmConfig:
     desired_kl: float = 0.01
     reward_group_names: list[str] | None = None
     """Names of the critics for logging: task first, then each objective."""
+    task_advantage_weight: float = 1.0
+    """w_task in A = w_task A_task + sum_i lambda_i A_obj_i (1 in the paper)."""
 
 
 @dataclass
@@ -47,6 +52,28 @@ class ModelConfig:
         if d["distribution_cfg"] is None:
             del d["distribution_cfg"]
         return {**d, **self.kwargs}
+
+
+def select_actor(model: ModelConfig, variant: str) -> None:
+    """Switch an actor config to another variant (a key of ACTOR_CLASSES), dropping arguments it does not take."""
+    if variant not in ACTOR_CLASSES:
+        raise ValueError(f"Unknown actor variant '{variant}'. Known: {', '.join(ACTOR_CLASSES)}.")
+    model.class_name = ACTOR_CLASSES[variant]
+    accepted = _init_parameters(resolve_callable(model.class_name))
+    model.kwargs = {k: v for k, v in model.kwargs.items() if k in accepted}
+
+
+def _init_parameters(cls: type) -> set[str]:
+    """Names a class's constructor accepts, following ``**kwargs`` up the base classes."""
+    names: set[str] = set()
+    for klass in cls.__mro__:
+        if "__init__" not in vars(klass):
+            continue
+        parameters = inspect.signature(klass.__init__).parameters.values()
+        names |= {p.name for p in parameters if p.kind not in (p.VAR_KEYWORD, p.VAR_POSITIONAL)}
+        if not any(p.kind == p.VAR_KEYWORD for p in parameters):
+            break
+    return names
 
 
 def default_actor() -> ModelConfig:

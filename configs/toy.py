@@ -25,7 +25,13 @@ def toy_task() -> TaskConfig:
             max_iterations=60,
             save_interval=50,
             algorithm=AlgorithmConfig(
-                gamma=0.95, learning_rate=3e-3, entropy_coef=0.0, reward_group_names=["task", *env.objective_names]
+                gamma=0.95,
+                learning_rate=3e-3,
+                entropy_coef=0.0,
+                reward_group_names=["task", *env.objective_names],
+                # the toy's task term is a tiny action cost: at weight 1 its normalised advantage would be mostly
+                # value noise as large as the objectives' signal
+                task_advantage_weight=0.1,
             ),
             actor=actor,
             critic=critic,

@@ -81,7 +81,7 @@ class ToyEnv(VecEnv):
         time_left = 1.0 - self.episode_length_buf.float().unsqueeze(1) / self.max_episode_length
         return TensorDict(
             {
-                "policy": self.frames.flatten(1),
+                "policy": self.frames.flatten(1).clone(),  # never alias buffers that step() updates in place
                 "preference": self.preference.clone(),
                 "critic": torch.cat([self.pos, time_left], dim=-1),
             },
@@ -96,7 +96,7 @@ class ToyEnv(VecEnv):
     def step(self, actions: torch.Tensor) -> tuple[TensorDict, torch.Tensor, torch.Tensor, dict]:
         actions = actions.clamp(-1.0, 1.0)
         self.pos += self.cfg.step_size * actions
-        self.frames = torch.roll(self.frames, 1, dims=1)
+        self.frames[:, 1:] = self.frames[:, :-1].clone()  # in place: buffers stay usable outside inference mode
         self.frames[:, 0] = torch.cat([self.pos, actions], dim=-1)
         self.episode_length_buf += 1
 

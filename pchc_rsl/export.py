@@ -26,7 +26,7 @@ def export_onnx(policy: torch.nn.Module, path: str, check: bool = True, atol: fl
             f"{type(policy).__name__} does not export a (obs, preference) policy; use a model from pchc_rsl.modules."
         )
     dummy = module.get_dummy_inputs()
-    batch = {0: "batch"}
+    batch = {0: torch.export.Dim("batch")}
     directory = os.path.dirname(os.path.abspath(path))
     os.makedirs(directory, exist_ok=True)
     with tempfile.NamedTemporaryFile(dir=directory, suffix=".onnx.tmp", delete=False) as tmp:
@@ -39,9 +39,10 @@ def export_onnx(policy: torch.nn.Module, path: str, check: bool = True, atol: fl
                 tmp_path,
                 input_names=["obs", "preference"],
                 output_names=["actions"],
-                dynamic_axes={"obs": batch, "preference": batch, "actions": batch},
+                dynamic_shapes={"obs": batch, "preference": batch},
                 opset_version=OPSET,
-                dynamo=False,
+                dynamo=True,
+                verbose=False,
             )
         os.replace(tmp_path, path)
     finally:

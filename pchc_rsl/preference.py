@@ -12,6 +12,8 @@ from collections.abc import Sequence
 import torch
 
 SUM_TOLERANCE = 1e-5
+DEFAULT_POSITION_EPS = 0.01
+"""Expert positions are evaluated inside [eps, 1 - eps]: see routing_weights."""
 
 
 def sample_preferences(
@@ -100,7 +102,7 @@ def routing_weights(
     alpha0: float = 1.0,
     beta0: float | None = None,
     scale: float = 10.0,
-    eps: float = 1e-6,
+    eps: float = DEFAULT_POSITION_EPS,
 ) -> torch.Tensor:
     """Normalised density of the preference-parameterised Beta/Dirichlet at the expert positions. Returns [N, E].
 
@@ -110,7 +112,7 @@ def routing_weights(
         alpha0: base concentration of objective 1 (of every objective when m > 2).
         beta0: base concentration of objective 2 when m = 2 (defaults to alpha0).
         scale: s, how sharply the preference concentrates the density.
-        eps: positions are clamped into [eps, 1 - eps] so the log stays finite at the simplex boundary.
+        eps: position coordinates are clamped into [eps, 1 - eps].
 
     Two objectives (the paper): alpha = alpha0 + lam_1 s, beta = beta0 + lam_2 s and
     w_j ∝ x_j^(alpha-1) (1-x_j)^(beta-1) / B(alpha, beta). B cancels when normalising over j, so
@@ -118,9 +120,15 @@ def routing_weights(
     which is exact, stable and exportable (no lgamma). With m objectives the Dirichlet density with
     concentrations c_i = c0_i + lam_i s gives w = softmax_j(sum_i (c_i - 1) log p_ji), equal to the Beta rule
     for m = 2 with p_j = (x_j, 1 - x_j).
+
+    Why the clamp matters: the Beta density at x = 1 is exactly 0 whenever beta > 1, i.e. for every preference but
+    the vertex (1, 0); an expert sitting exactly at an end would never be trained and would act only at the vertex.
+    Evaluated at 1 - eps, it takes over smoothly near the vertex instead (eps = 0.01, s = 10, alpha0 = beta0 = 1: weight
+    0.94 at lambda = (1, 0), 0.32 at (0.9, 0.1), 0.01 at (0.8, 0.2)).
     """
     m = lam.shape[-1]
-    points = expert_positions_on_simplex(positions, m).to(lam.device, lam.dtype) if positions.dim() == 1 else positions
+    points = expert_positions_on_simplex(positions, m) if positions.dim() == 1 else positions
+    points = points.to(lam.device, lam.dtype)
     if m == 2:
         base = torch.tensor([alpha0, alpha0 if beta0 is None else beta0], device=lam.device, dtype=lam.dtype)
     else:
@@ -128,7 +136,6 @@ def routing_weights(
             raise ValueError(f"With {m} objectives every objective uses alpha0; got beta0={beta0} != alpha0={alpha0}.")
         base = torch.full((m,), float(alpha0), device=lam.device, dtype=lam.dtype)
     concentration = base + lam * scale  # [N, m]
-    log_points = points.to(lam.device, lam.dtype).clamp(eps, 1.0 - eps).log()  # [E, m]
+    log_points = points.clamp(eps, 1.0 - eps).log()  # [E, m]
     # log of the unnormalised density, sum_i (c_i - 1) log p_ji: [N, m] @ [m, E]
-    logits = (concentration - 1.0) @ log_points.T
-    return torch.softmax(logits, dim=-1)
+    return torch.softmax((concentration - 1.0) @ log_points.T, dim=-1)

@@ -19,8 +19,11 @@ class MultiCriticPPO(PPO):
 
     Each critic gets its own GAE (with its own time-out bootstrap); each advantage is normalised over the
     rollout, and the policy is trained on (the paper's Eq. for A^lambda)
-        A = A_task + sum_i lambda_i A_obj_i,
-    with lambda read from the stored preference observation of each transition.
+        A = w_task A_task + sum_i lambda_i A_obj_i,
+    with lambda read from the stored preference observation of each transition and w_task = 1 in the paper.
+    Normalisation erases each group's reward scale, so w_task (as HoST's per-critic coefficients) is the only way to
+    say how much the task matters against the objectives; lower it when the task group is small or nearly constant,
+    whose normalised advantage is then mostly value-estimation noise.
     Use it from any rsl-rl config: ``"algorithm": {"class_name": "pchc_rsl.algorithms:MultiCriticPPO", ...}``.
     """
 
@@ -31,6 +34,7 @@ class MultiCriticPPO(PPO):
         storage: MultiCriticRolloutStorage,
         preference_group: str = "preference",
         reward_group_names: list[str] | None = None,
+        task_advantage_weight: float = 1.0,
         **kwargs,
     ) -> None:
         if kwargs.get("normalize_advantage_per_mini_batch"):
@@ -40,6 +44,7 @@ class MultiCriticPPO(PPO):
             )
         super().__init__(actor, critic, storage, **kwargs)
         self.preference_group = preference_group
+        self.task_advantage_weight = task_advantage_weight
         self.num_critics = storage.num_critics
         self.reward_group_names = reward_group_names or ["task"] + [f"obj_{i}" for i in range(1, self.num_critics)]
         if len(self.reward_group_names) != self.num_critics:
@@ -94,9 +99,11 @@ class MultiCriticPPO(PPO):
         flat = advantages.flatten(0, 1)
         mean, std = flat.mean(dim=0), flat.std(dim=0)
         normalised = (advantages - mean) / (std + 1e-8)
-        # A^lambda = A_task + sum_i lambda_i A_obj_i
+        # A^lambda = w_task A_task + sum_i lambda_i A_obj_i
         lam = st.observations[self.preference_group].to(normalised.dtype)  # [T, N, m]
-        st.advantages = normalised[..., :1] + (lam * normalised[..., 1:]).sum(dim=-1, keepdim=True)
+        st.advantages = self.task_advantage_weight * normalised[..., :1] + (lam * normalised[..., 1:]).sum(
+            dim=-1, keepdim=True
+        )
         self._record_return_stats(mean, std)
 
     def _record_return_stats(self, adv_mean: torch.Tensor, adv_std: torch.Tensor) -> None:

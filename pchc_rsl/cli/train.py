@@ -6,7 +6,7 @@ import argparse
 import datetime
 import os
 
-from pchc_rsl.configs import ACTOR_CLASSES, TASKS, task_config
+from pchc_rsl.configs import ACTOR_CLASSES, TASKS, select_actor, task_config
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -40,7 +40,7 @@ def main(argv: list[str] | None = None) -> None:
     if args.device is not None:
         cfg.device = args.device
     if args.actor is not None:
-        cfg.runner.actor.class_name = ACTOR_CLASSES[args.actor]
+        select_actor(cfg.runner.actor, args.actor)
     log_dir = args.log_dir or os.path.join(
         "logs", cfg.name, datetime.datetime.now().strftime("%Y-%m-%d_%H-%M-%S")
     )

@@ -1,0 +1,95 @@
+import pytest
+import torch
+from tensordict import TensorDict
+
+from pchc_rsl.modules import GatedMoEActor, PCIActor, PreferenceMLPModel
+from pchc_rsl.preference import routing_weights
+
+FRAME, HISTORY, N = 4, 5, 6
+GROUPS = {"actor": ["policy", "preference"]}
+GAUSSIAN = {"class_name": "rsl_rl.modules:GaussianDistribution", "init_std": 1.0}
+
+
+def make_obs(n=N, m=2, seed=0):
+    gen = torch.Generator().manual_seed(seed)
+    lam = torch.rand(n, m, generator=gen)
+    return TensorDict(
+        {"policy": torch.randn(n, FRAME * (HISTORY + 1), generator=gen), "preference": lam / lam.sum(-1, keepdim=True)},
+        batch_size=[n],
+    )
+
+
+def test_pci_actor_mixes_its_experts_with_the_beta_routing_weights():
+    obs = make_obs()
+    actor = PCIActor(obs, GROUPS, "actor", 3, hidden_dims=[16], history_length=HISTORY, history_latent_dim=5,
+                     distribution_cfg=GAUSSIAN, routing_scale=7.0)
+    head = actor.mlp
+    x = obs["policy"]
+    latent = head.encoder(x[:, FRAME:])
+    features = torch.cat([x[:, :FRAME], latent], dim=-1)
+    # each expert by hand: one hidden ELU layer
+    outputs = []
+    for j in range(5):
+        h = torch.nn.functional.elu(features @ head.experts.weights[0][j] + head.experts.biases[0][j])
+        outputs.append(h @ head.experts.weights[1][j] + head.experts.biases[1][j])
+    weights = routing_weights(obs["preference"], torch.linspace(0, 1, 5), 1.0, 1.0, 7.0)
+    expected = sum(weights[:, j : j + 1] * outputs[j] for j in range(5))
+    torch.testing.assert_close(actor(obs), expected, atol=1e-5, rtol=1e-5)
+    assert actor(obs, stochastic_output=True).shape == (N, 3)
+
+
+def test_pci_actor_at_a_vertex_preference_is_the_vertex_expert():
+    obs = make_obs()
+    obs["preference"][:] = torch.tensor([1.0, 0.0])
+    actor = PCIActor(obs, GROUPS, "actor", 3, hidden_dims=[16], routing_scale=500.0)
+    head = actor.mlp
+    features = head.features(torch.cat([obs["policy"], obs["preference"]], -1))
+    only_last = head.experts(features)[4]  # expert at x = 1
+    torch.testing.assert_close(actor(obs), only_last, atol=1e-5, rtol=1e-5)
+
+
+def test_history_reaches_the_actor_only_through_the_encoder():
+    obs = make_obs()
+    actor = PCIActor(obs, GROUPS, "actor", 3, hidden_dims=[16])
+    changed = obs.clone()
+    changed["policy"][:, FRAME:] += 1.0
+    assert not torch.allclose(actor(obs), actor(changed))
+    with torch.no_grad():
+        for p in actor.mlp.encoder.parameters():
+            p.zero_()
+    torch.testing.assert_close(actor(obs), actor(changed))
+
+
+def test_preference_is_never_normalised():
+    obs = make_obs()
+    actor = PCIActor(obs, GROUPS, "actor", 3, hidden_dims=[16], obs_normalization=True)
+    assert actor.obs_normalizer.mean.shape[-1] == FRAME * (HISTORY + 1)
+    big = obs.clone()
+    big["preference"] = big["preference"] * 0 + torch.tensor([0.3, 0.7])
+    for _ in range(3):
+        actor.update_normalization(big)
+    latent = actor.get_latent(big)
+    torch.testing.assert_close(latent[:, -2:], big["preference"])
+
+
+def test_three_objectives_use_the_dirichlet_lattice():
+    obs = make_obs(m=3)
+    actor = PCIActor(obs, GROUPS, "actor", 2, hidden_dims=[8])
+    assert actor.mlp.positions.shape == (6, 3)
+    assert actor(obs).shape == (N, 2)
+
+
+def test_gated_and_plain_ablations_run_and_the_gate_is_learned():
+    obs = make_obs()
+    gated = GatedMoEActor(obs, GROUPS, "actor", 3, hidden_dims=[16], distribution_cfg=GAUSSIAN)
+    plain = PreferenceMLPModel(obs, GROUPS, "actor", 3, hidden_dims=[16], distribution_cfg=GAUSSIAN)
+    assert gated(obs).shape == plain(obs).shape == (N, 3)
+    assert any("gate" in name for name, _ in gated.named_parameters())
+
+
+def test_errors_name_the_problem():
+    obs = make_obs()
+    with pytest.raises(ValueError, match="preference group"):
+        PCIActor(obs, {"actor": ["policy"]}, "actor", 3)
+    with pytest.raises(ValueError, match="history_length"):
+        PCIActor(obs, GROUPS, "actor", 3, history_length=4)

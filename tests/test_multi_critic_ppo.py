@@ -1,0 +1,110 @@
+import pytest
+import torch
+
+from pchc_rsl.algorithms import MultiCriticPPO
+from pchc_rsl.cli.common import make_runner
+
+
+@pytest.fixture
+def alg(toy_cfg):
+    return make_runner(toy_cfg).alg
+
+
+def fill_storage(alg, gen, preference):
+    """Random rewards, values, dones and the given preference in every stored transition."""
+    st = alg.storage
+    T, N, K = st.rewards.shape
+    st.rewards[:] = torch.randn(T, N, K, generator=gen)
+    st.values[:] = torch.randn(T, N, K, generator=gen)
+    st.dones[:] = (torch.rand(T, N, 1, generator=gen) < 0.15).byte()
+    st.observations["preference"][:] = preference
+    st.step = T
+
+
+def reference_gae(rewards, values, dones, last_values, gamma, lam):
+    """Plain Python GAE for one env and one critic."""
+    T = len(rewards)
+    advantages = [0.0] * T
+    next_advantage = 0.0
+    for t in reversed(range(T)):
+        next_value = last_values if t == T - 1 else values[t + 1]
+        not_done = 1.0 - dones[t]
+        delta = rewards[t] + gamma * next_value * not_done - values[t]
+        next_advantage = delta + gamma * lam * not_done * next_advantage
+        advantages[t] = next_advantage
+    return advantages
+
+
+def test_per_critic_gae_and_combined_advantage_match_a_reference_loop(alg):
+    gen = torch.Generator().manual_seed(0)
+    st = alg.storage
+    T, N, K = st.rewards.shape
+    preference = torch.distributions.Dirichlet(torch.ones(2)).sample((T, N))
+    fill_storage(alg, gen, preference)
+    alg.task_advantage_weight = 0.7
+    obs = alg.storage.observations[-1]
+    last_values = alg.critic(obs).detach()
+    alg.compute_returns(obs)
+
+    raw = torch.zeros(T, N, K)
+    for n in range(N):
+        for k in range(K):
+            raw[:, n, k] = torch.tensor(reference_gae(
+                st.rewards[:, n, k].tolist(), st.values[:, n, k].tolist(), st.dones[:, n, 0].float().tolist(),
+                last_values[n, k].item(), alg.gamma, alg.lam,
+            ))
+    torch.testing.assert_close(st.returns, raw + st.values, atol=1e-5, rtol=1e-5)
+    normalised = (raw - raw.mean(dim=(0, 1))) / (raw.std(dim=(0, 1)) + 1e-8)
+    expected = 0.7 * normalised[..., 0] + preference[..., 0] * normalised[..., 1] + preference[..., 1] * normalised[..., 2]
+    torch.testing.assert_close(st.advantages.squeeze(-1), expected, atol=1e-5, rtol=1e-5)
+
+
+def advantages_with_objective_2_rewards(alg, scale, preference):
+    gen = torch.Generator().manual_seed(1)
+    T, N, _ = alg.storage.rewards.shape
+    fill_storage(alg, gen, preference.expand(T, N, 2))
+    alg.storage.rewards[..., 2] *= scale
+    obs = alg.storage.observations[-1]
+    alg.compute_returns(obs)
+    return alg.storage.advantages.clone()
+
+
+def test_objective_2_rewards_do_not_matter_at_preference_1_0(alg):
+    lam = torch.tensor([1.0, 0.0])
+    a = advantages_with_objective_2_rewards(alg, 1.0, lam)
+    b = advantages_with_objective_2_rewards(alg, -7.0, lam)
+    torch.testing.assert_close(a, b)
+    # ... and they do at (0.5, 0.5): the test above can fail
+    lam = torch.tensor([0.5, 0.5])
+    c = advantages_with_objective_2_rewards(alg, 1.0, lam)
+    d = advantages_with_objective_2_rewards(alg, -7.0, lam)
+    assert (c - d).abs().max() > 0.1
+
+
+def test_time_outs_bootstrap_every_critic(alg):
+    N = alg.storage.num_envs
+    obs = alg.storage.observations[0].clone()
+    alg.act(obs)
+    values = alg.transition.values.clone()
+    groups = torch.randn(N, 3)
+    time_outs = torch.zeros(N, dtype=torch.bool)
+    time_outs[::2] = True
+    alg.process_env_step(obs, groups.sum(-1), time_outs, {"reward_groups": groups, "time_outs": time_outs})
+    expected = groups + alg.gamma * values * time_outs.unsqueeze(1).float()
+    torch.testing.assert_close(alg.storage.rewards[0], expected)
+
+
+def test_reward_groups_are_required_with_the_right_width(alg):
+    obs = alg.storage.observations[0].clone()
+    alg.act(obs)
+    N = alg.storage.num_envs
+    with pytest.raises(KeyError, match="reward_groups"):
+        alg.process_env_step(obs, torch.zeros(N), torch.zeros(N, dtype=torch.bool), {})
+    alg.act(obs)
+    with pytest.raises(ValueError, match="expected"):
+        alg.process_env_step(obs, torch.zeros(N), torch.zeros(N, dtype=torch.bool), {"reward_groups": torch.zeros(N, 2)})
+
+
+def test_per_mini_batch_normalisation_is_refused(alg):
+    with pytest.raises(ValueError, match="normalize_advantage_per_mini_batch"):
+        MultiCriticPPO(alg.actor, alg.critic, alg.storage, normalize_advantage_per_mini_batch=True)
