@@ -12,10 +12,13 @@ from pchc_rsl.configs.base import (
     TaskConfig,
     select_actor,
 )
+from pchc_rsl.configs.g1_walk import g1_walk_fast_task, g1_walk_task
 from pchc_rsl.configs.toy import toy_task
 
 TASKS: dict[str, Callable[[], TaskConfig]] = {
     "toy": toy_task,
+    "g1-walk": g1_walk_task,
+    "g1-walk-fast": g1_walk_fast_task,
 }
 
 

@@ -1,0 +1,67 @@
+"""G1 walking: stride length vs disturbance resistance (the paper's Table II task)."""
+
+from __future__ import annotations
+
+from pchc_rsl.configs.base import AlgorithmConfig, RunnerConfig, TaskConfig, default_actor, default_critic
+from pchc_rsl.envs.g1_env import G1EnvConfig, RewardTerm
+from pchc_rsl.robots.g1.constants import WALK_JOINTS
+
+R = "pchc_rsl.envs.g1_rewards:"
+
+
+def walk_rewards() -> list[RewardTerm]:
+    """Task terms follow mjlab's velocity task / legged_gym conventions; objectives are the paper's equations."""
+    return [
+        RewardTerm(R + "track_lin_vel_xy", 1.0, params={"std": 0.5}),
+        RewardTerm(R + "track_ang_vel_z", 0.5, params={"std": 0.5}),
+        RewardTerm(R + "flat_orientation", -5.0),
+        RewardTerm(R + "base_height", -10.0, params={"target": 0.74}),
+        RewardTerm(R + "feet_air_time", 0.25, params={"threshold": 0.4}),
+        RewardTerm(R + "feet_slip", -0.1),
+        RewardTerm(R + "feet_clearance", -1.0, params={"target_height": 0.1}),
+        RewardTerm(R + "joint_limits", -5.0),
+        RewardTerm(R + "torques", -1e-5),
+        RewardTerm(R + "action_rate", -0.01),
+        RewardTerm(R + "alive", 1.0),
+        RewardTerm(R + "stride", 1.0, group="stride"),
+        RewardTerm(R + "disturbance", 1.0, group="disturbance"),
+    ]
+
+
+def walk_env(fast: bool = False) -> G1EnvConfig:
+    """Paper physics: 500 Hz PD, 50 Hz policy. ``fast``: timestep 0.005, decimation 4 (HoST, mjlab)."""
+    return G1EnvConfig(
+        joints=list(WALK_JOINTS),
+        timestep=0.005 if fast else 0.002,
+        decimation=4 if fast else 10,
+        use_command=True,
+        command_ranges={"lin_vel_x": (0.0, 1.0), "lin_vel_y": (0.0, 0.0), "ang_vel_z": (0.0, 0.0)},
+        objective_names=["stride", "disturbance"],
+        rewards=walk_rewards(),
+        termination_height=0.45,
+    )
+
+
+def g1_walk_task(fast: bool = False) -> TaskConfig:
+    env = walk_env(fast)
+    actor = default_actor()
+    actor.kwargs = {"history_length": env.history_length}
+    return TaskConfig(
+        name="g1-walk-fast" if fast else "g1-walk",
+        env_class="pchc_rsl.envs.g1_env:G1Env",
+        env=env,
+        num_envs=64,
+        runner=RunnerConfig(
+            experiment_name="g1_walk",
+            num_steps_per_env=24,
+            max_iterations=3000,
+            save_interval=50,
+            algorithm=AlgorithmConfig(reward_group_names=["task", *env.objective_names]),
+            actor=actor,
+            critic=default_critic(),
+        ),
+    )
+
+
+def g1_walk_fast_task() -> TaskConfig:
+    return g1_walk_task(fast=True)

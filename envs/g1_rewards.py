@@ -1,0 +1,80 @@
+"""Reward terms for the G1 tasks: ``term(env, **params) -> Tensor[N]``, weighted and grouped by the task config.
+
+The env multiplies each term by its weight and the policy step dt and adds it to the term's group.
+"""
+
+from __future__ import annotations
+
+import torch
+
+
+def track_lin_vel_xy(env, std: float) -> torch.Tensor:
+    """exp(-||v_cmd_xy - v_base_xy||^2 / std^2), base frame."""
+    return torch.exp(-((env.commands[:, :2] - env.base_lin_vel[:, :2]) ** 2).sum(-1) / std**2)
+
+
+def track_ang_vel_z(env, std: float) -> torch.Tensor:
+    """exp(-(w_cmd - w_z)^2 / std^2)."""
+    return torch.exp(-((env.commands[:, 2] - env.base_ang_vel[:, 2]) ** 2) / std**2)
+
+
+def flat_orientation(env) -> torch.Tensor:
+    """||g_xy||^2 of gravity in the base frame: 0 when upright."""
+    return (env.projected_gravity[:, :2] ** 2).sum(-1)
+
+
+def base_height(env, target: float) -> torch.Tensor:
+    """(z_pelvis - target)^2."""
+    return (env.base_pos[:, 2] - target) ** 2
+
+
+def feet_air_time(env, threshold: float) -> torch.Tensor:
+    """Sum over touchdowns of (air time - threshold), only while a velocity is commanded (legged_gym's term)."""
+    moving = env.commands[:, :2].norm(dim=-1) > 0.1
+    return ((env.last_air_time - threshold) * env.first_contact).sum(-1) * moving
+
+
+def feet_slip(env) -> torch.Tensor:
+    """Sum over feet in contact of the squared horizontal foot speed."""
+    return (env.foot_contact * (env.foot_vel[..., :2] ** 2).sum(-1)).sum(-1)
+
+
+def feet_clearance(env, target_height: float) -> torch.Tensor:
+    """Swing feet away from target_height, weighted by their horizontal speed."""
+    speed = env.foot_vel[..., :2].norm(dim=-1)
+    return (~env.foot_contact * (env.foot_pos[..., 2] - target_height) ** 2 * speed).sum(-1)
+
+
+def joint_limits(env) -> torch.Tensor:
+    """How far joints are outside 90% of their range (rad, summed)."""
+    low, high = env.soft_joint_limits[:, 0], env.soft_joint_limits[:, 1]
+    return ((low - env.joint_pos).clamp(min=0) + (env.joint_pos - high).clamp(min=0)).sum(-1)
+
+
+def torques(env) -> torch.Tensor:
+    """sum_j tau_j^2."""
+    return (env.torques**2).sum(-1)
+
+
+def action_rate(env) -> torch.Tensor:
+    """sum_j (a_t - a_{t-1})^2."""
+    return ((env.actions - env.last_actions) ** 2).sum(-1)
+
+
+def alive(env) -> torch.Tensor:
+    return torch.ones(env.num_envs)
+
+
+def stride(env) -> torch.Tensor:
+    """The paper's r_stride = 1_contact ||p_current - p_last_contact|| at each touchdown, summed over feet."""
+    return env.stride.sum(-1)
+
+
+def disturbance(env) -> torch.Tensor:
+    """The paper's r_disturb = 1_after-disturb (-||x_base - x_last|| - |v_base . d|), horizontal.
+
+    x_last advances with the commanded velocity during the window (env.push_deviation), so walking as commanded is
+    not penalised; with no command it is the pre-push position, as in the paper.
+    """
+    along_push = (env.base_lin_vel_w[:, :2] * env.push_dir).sum(-1).abs()
+    return env.after_push * (-env.push_deviation.norm(dim=-1) - along_push)

@@ -1,0 +1,1 @@
+"""Robot models for the MuJoCo environments."""

@@ -1,0 +1,96 @@
+"""Build the simulated G1 for a task: the menagerie MJCF plus floor, actuators, armature, lean feet and sensors."""
+
+from __future__ import annotations
+
+import os
+
+import mujoco
+
+from pchc_rsl.robots.g1.constants import DEFAULT_POSE, FOOT_BODIES, FOOT_SITES, joint_gains, joint_motor
+
+ALL_JOINTS_MARKER = "floating_base_joint"
+SOLE_HALF_SIZE = (0.0935, 0.0365, 0.01)
+"""Half sizes of the box that replaces the seven sole capsules of each foot (same footprint, 4 contacts not 14)."""
+SOLE_CENTER = (0.0395, 0.0, -0.025)
+
+
+def load_g1_spec() -> mujoco.MjSpec:
+    """The 29-DoF G1 MjSpec from mujoco-menagerie; a clear error when it cannot be had offline."""
+    try:
+        import mujoco_menagerie
+
+        return mujoco_menagerie.get("unitree_g1").spec("g1_mjlab")
+    except Exception as error:  # noqa: BLE001 - any failure here means the model is unavailable
+        hint = (
+            f"MENAGERIE_ROOT={os.environ['MENAGERIE_ROOT']} does not hold unitree_g1/g1_mjlab.xml"
+            if "MENAGERIE_ROOT" in os.environ
+            else "without internet, set MENAGERIE_ROOT to a folder holding unitree_g1/g1_mjlab.xml "
+            "(e.g. export MENAGERIE_ROOT=$(cd ../shared/menagerie && pwd))"
+        )
+        raise RuntimeError(f"Could not load the Unitree G1 from mujoco-menagerie ({error}); {hint}.") from error
+
+
+def build_g1_model(joints: list[str], timestep: float = 0.002, lean_feet: bool = True) -> mujoco.MjModel:
+    """Compile a G1 that actuates exactly ``joints`` (in that order) with position actuators.
+
+    Joints not in ``joints`` are deleted, which welds their bodies to the parent (mass kept, no cost).
+    Sensors, in this order: per foot a framepos, a framelinvel and a touch sensor (sole contact force);
+    then one actuatorfrc per actuator. Robot geoms collide with the floor only (no self-collision).
+    """
+    spec = load_g1_spec()
+    spec.option.timestep = timestep
+    known = {j.name for j in spec.joints}
+    unknown = [j for j in joints if j not in known]
+    if unknown:
+        raise ValueError(f"Unknown G1 joints {unknown}; known: {sorted(known - {ALL_JOINTS_MARKER})}.")
+    for joint in list(spec.joints):
+        if joint.name != ALL_JOINTS_MARKER and joint.name not in joints:
+            spec.delete(joint)
+
+    for geom in spec.geoms:
+        geom.contype, geom.conaffinity = 1, 0  # robot: collides with the floor only
+    if lean_feet:
+        for geom in list(spec.geoms):
+            if "_foot" in geom.name and geom.name.endswith("_collision"):
+                spec.delete(geom)
+        for body_name in FOOT_BODIES:
+            spec.body(body_name).add_geom(
+                name=body_name.replace("ankle_roll_link", "sole"), type=mujoco.mjtGeom.mjGEOM_BOX,
+                size=SOLE_HALF_SIZE, pos=SOLE_CENTER, contype=1, conaffinity=0, rgba=(0.2, 0.2, 0.2, 1),
+            )
+    spec.worldbody.add_geom(
+        name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=(0, 0, 0.05), contype=0, conaffinity=1,
+        friction=(1.0, 0.005, 0.0001),
+    )
+
+    for name in joints:
+        joint = spec.joint(name)
+        motor = joint_motor(name)
+        kp, kd = joint_gains(name)
+        joint.armature = motor.armature
+        spec.add_actuator(
+            name=name.replace("_joint", ""), target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT,
+            gaintype=mujoco.mjtGain.mjGAIN_FIXED, gainprm=[kp] + [0] * 9,
+            biastype=mujoco.mjtBias.mjBIAS_AFFINE, biasprm=[0, -kp, -kd] + [0] * 7,
+            forcelimited=True, forcerange=[-motor.effort_limit, motor.effort_limit],
+        )
+
+    for site_name, body_name in zip(FOOT_SITES, FOOT_BODIES):
+        spec.add_sensor(name=f"{site_name}_pos", type=mujoco.mjtSensor.mjSENS_FRAMEPOS,
+                        objtype=mujoco.mjtObj.mjOBJ_SITE, objname=site_name)
+        spec.add_sensor(name=f"{site_name}_linvel", type=mujoco.mjtSensor.mjSENS_FRAMELINVEL,
+                        objtype=mujoco.mjtObj.mjOBJ_SITE, objname=site_name)
+        sole = spec.body(body_name).add_site(
+            name=f"{site_name}_sole", type=mujoco.mjtGeom.mjGEOM_BOX, pos=(SOLE_CENTER[0], 0, -0.035),
+            size=(SOLE_HALF_SIZE[0] + 0.01, SOLE_HALF_SIZE[1] + 0.01, 0.015), group=4,
+        )
+        spec.add_sensor(name=f"{site_name}_touch", type=mujoco.mjtSensor.mjSENS_TOUCH,
+                        objtype=mujoco.mjtObj.mjOBJ_SITE, objname=sole.name)
+    for name in joints:
+        spec.add_sensor(name=f"{name}_torque", type=mujoco.mjtSensor.mjSENS_ACTUATORFRC,
+                        objtype=mujoco.mjtObj.mjOBJ_ACTUATOR, objname=name.replace("_joint", ""))
+    return spec.compile()
+
+
+def default_joint_positions(joints: list[str]) -> list[float]:
+    return [DEFAULT_POSE.get(j, 0.0) for j in joints]
