@@ -1,0 +1,149 @@
+import glob
+import math
+import os
+import subprocess
+import sys
+
+import pytest
+import torch
+
+from pchc_rsl.configs import task_config
+
+pytest.importorskip("mujoco")
+
+
+def g1_available() -> bool:
+    try:
+        from pchc_rsl.robots.g1.model import load_g1_spec
+
+        load_g1_spec()
+        return True
+    except RuntimeError:
+        return False
+
+
+pytestmark = pytest.mark.skipif(not g1_available(), reason="G1 model unavailable (set MENAGERIE_ROOT offline)")
+
+
+def make_walk_env(num_envs=4, seed=0, **env_overrides):
+    from pchc_rsl.cli.common import make_env
+
+    cfg = task_config("g1-walk-fast")
+    cfg.num_envs, cfg.seed = num_envs, seed
+    for key, value in env_overrides.items():
+        setattr(cfg.env, key, value)
+    return make_env(cfg)
+
+
+def test_models_actuate_the_task_joints():
+    from pchc_rsl.robots.g1.constants import FALL_RECOVERY_JOINTS, WALK_JOINTS
+    from pchc_rsl.robots.g1.model import build_g1_model
+
+    walk, recovery = build_g1_model(WALK_JOINTS), build_g1_model(FALL_RECOVERY_JOINTS)
+    assert (walk.nu, walk.nq, walk.nv) == (20, 27, 26)
+    assert (recovery.nu, recovery.nq, recovery.nv) == (23, 30, 29)
+    assert [walk.actuator(i).name for i in range(3)] == ["left_hip_pitch", "left_hip_roll", "left_hip_yaw"]
+    with pytest.raises(ValueError, match="Unknown G1 joints"):
+        build_g1_model(["left_tail_joint"])
+
+
+def test_missing_model_says_how_to_fix_it(tmp_path):
+    code = "from pchc_rsl.robots.g1.model import load_g1_spec\nload_g1_spec()"
+    env = {**os.environ, "MENAGERIE_ROOT": str(tmp_path)}
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+    assert result.returncode != 0 and "MENAGERIE_ROOT" in result.stderr
+
+
+def test_observation_shapes():
+    env = make_walk_env()
+    obs = env.get_observations()
+    frame = 3 + 3 + 20 * 3 + 1 + 3  # ang vel, gravity, q, dq, last action, eta, command
+    assert obs["policy"].shape == (4, 6 * frame)
+    assert obs["preference"].shape == (4, 2)
+    torch.testing.assert_close(obs["preference"].sum(-1), torch.ones(4))
+    assert obs["critic"].shape[0] == 4
+    o, r, d, extras = env.step(torch.zeros(4, 20))
+    assert extras["reward_groups"].shape == (4, 3) and r.shape == (4,) and d.shape == (4,)
+
+
+def test_stride_reward_from_scripted_contacts():
+    from pchc_rsl.envs import g1_rewards
+
+    env = make_walk_env(num_envs=1)
+    K = env.cfg.decimation
+    env.foot_contact[:] = torch.tensor([[False, True]])  # left foot in the air, right on the ground
+    env.last_contact_pos[:] = torch.tensor([[[0.0, 0.0], [0.2, -0.1]]])
+    env.foot_pos = torch.tensor([[[0.3, 0.4, 0.03], [0.2, -0.1, 0.03]]])
+    touch = torch.zeros(1, K, 2)
+    touch[0, K // 2 :, 0] = 50.0  # left touches down mid-step
+    touch[0, :, 1] = 200.0  # right stays down
+    env.foot_touch_substeps = touch
+    env._update_contacts()
+    assert env.first_contact.tolist() == [[True, False]]
+    assert g1_rewards.stride(env).item() == pytest.approx(0.5)  # |(0.3, 0.4) - (0, 0)|
+    # the touchdown point becomes the new last-contact point; the next touchdown measures from there
+    torch.testing.assert_close(env.last_contact_pos[0, 0], torch.tensor([0.3, 0.4]))
+    env._update_contacts()
+    assert g1_rewards.stride(env).item() == 0.0  # still in contact: no new touchdown
+
+
+def test_push_records_direction_and_gives_r_disturb():
+    from pchc_rsl.envs import g1_rewards
+
+    env = make_walk_env(num_envs=3)
+    env.commands[:] = 0.0
+    before = torch.from_numpy(env.physics.qvel[:, :2].copy()).float()
+    env.push_countdown[:] = 1
+    env._apply_pushes()
+    after = torch.from_numpy(env.physics.qvel[:, :2].copy()).float()
+    kick = after - before
+    speed = kick.norm(dim=-1)
+    low, high = env.cfg.push.velocity
+    assert ((speed >= low - 1e-6) & (speed <= high + 1e-6)).all()
+    torch.testing.assert_close(kick / speed.unsqueeze(-1), env.push_dir)
+    torch.testing.assert_close(env.push_origin, env.base_pos[:, :2])
+    assert env.after_push.all()
+    env.step(torch.zeros(3, 20))
+    by_hand = -(env.base_pos[:, :2] - env.push_origin).norm(dim=-1) - (
+        env.base_lin_vel_w[:, :2] * env.push_dir
+    ).sum(-1).abs()
+    torch.testing.assert_close(g1_rewards.disturbance(env), by_hand)
+    assert (by_hand < 0).all()
+
+
+def test_reset_restores_a_valid_standing_state():
+    env = make_walk_env(num_envs=2)
+    for _ in range(5):
+        env.step(torch.randn(2, 20, generator=torch.Generator().manual_seed(0)) * 3)
+    env._reset(torch.tensor([1]))
+    assert env.episode_length_buf[1] == 0
+    assert env.base_pos[1, 2].item() == pytest.approx(0.76)
+    torch.testing.assert_close(env.base_quat[1], torch.tensor([1.0, 0.0, 0.0, 0.0]))
+    assert (env.joint_pos[1] - env.default_joint_pos).abs().max() <= env.cfg.initial_joint_noise + 1e-6
+    assert torch.isfinite(env.get_observations()["policy"]).all()
+
+
+def test_same_seed_same_trajectory():
+    def rollout(seed):
+        env = make_walk_env(num_envs=3, seed=seed)
+        gen = torch.Generator().manual_seed(7)
+        trace = []
+        for _ in range(15):
+            obs, reward, _, _ = env.step(0.5 * torch.randn(3, 20, generator=gen))
+            trace.append(torch.cat([obs["policy"], reward.unsqueeze(-1)], -1))
+        return torch.stack(trace)
+
+    a, b, c = rollout(5), rollout(5), rollout(6)
+    assert torch.equal(a, b)
+    assert not torch.equal(a, c)
+
+
+def test_two_iteration_training_writes_checkpoint_and_events(tmp_path):
+    from pchc_rsl.cli import train
+
+    train.main(["--task", "g1-walk-fast", "--num-envs", "4", "--max-iterations", "2", "--log-dir", str(tmp_path)])
+    assert os.path.isfile(tmp_path / "model_1.pt")
+    assert glob.glob(str(tmp_path / "events.out.tfevents.*"))
+    checkpoint = torch.load(tmp_path / "model_1.pt", weights_only=True)
+    assert checkpoint["config"]["task"] == "g1-walk-fast"
+    assert math.isclose(checkpoint["config"]["env"]["timestep"], 0.005)
