@@ -12,6 +12,7 @@ from pchc_rsl.configs.base import (
     TaskConfig,
     select_actor,
 )
+from pchc_rsl.configs.g1_fall_recovery import g1_fall_recovery_fast_task, g1_fall_recovery_task
 from pchc_rsl.configs.g1_walk import g1_walk_fast_task, g1_walk_task
 from pchc_rsl.configs.toy import toy_task
 
@@ -19,6 +20,8 @@ TASKS: dict[str, Callable[[], TaskConfig]] = {
     "toy": toy_task,
     "g1-walk": g1_walk_task,
     "g1-walk-fast": g1_walk_fast_task,
+    "g1-fall-recovery": g1_fall_recovery_task,
+    "g1-fall-recovery-fast": g1_fall_recovery_fast_task,
 }
 
 

@@ -114,6 +114,9 @@ NOISE_SCALES = {"ang_vel": 0.2, "gravity": 0.05, "joint_pos": 0.01, "joint_vel":
 class G1Env(VecEnv):
     """N G1 robots; see G1EnvConfig. Device is the CPU (the physics runs there)."""
 
+    uses_body_forces = False
+    """Tasks that push bodies with external forces (e.g. the fall-recovery assist) set this."""
+
     def __init__(self, cfg: G1EnvConfig, num_envs: int, device: str = "cpu", seed: int = 0) -> None:
         if cfg.preference_concentration <= 0:
             raise ValueError("preference_concentration must be > 0.")
@@ -126,7 +129,8 @@ class G1Env(VecEnv):
         self.rng = np.random.default_rng(seed)
 
         model = build_g1_model(cfg.joints, cfg.timestep)
-        self.physics = BatchedMuJoCo(self._randomized_models(model), num_envs, cfg.decimation, cfg.num_threads)
+        self.physics = BatchedMuJoCo(self._randomized_models(model), num_envs, cfg.decimation, cfg.num_threads,
+                                     with_body_forces=self.uses_body_forces)
         self.model = model
         self.default_joint_pos = torch.tensor(default_joint_positions(cfg.joints))
         qpos_adr = [model.jnt_qposadr[model.joint(j).id] for j in cfg.joints]
@@ -376,6 +380,7 @@ class G1Env(VecEnv):
         self.actions = actions.detach().to("cpu").float().clamp(-self.cfg.action_clip, self.cfg.action_clip)
         target = self.default_joint_pos + self.action_scale * self.actions
         self._apply_pushes()
+        self._before_physics()
         self.physics.step(target.double().numpy())
         unstable = self._unstable_envs()
         self._read_state()
@@ -406,6 +411,9 @@ class G1Env(VecEnv):
         self.frames[:, 0] = self._frame(noise=True)
         extras = {"time_outs": time_outs, "reward_groups": reward_groups, "log": log}
         return self.get_observations(), reward, dones, extras
+
+    def _before_physics(self) -> None:
+        """Hook for tasks: set external forces or curricula right before the physics step."""
 
     def _unstable_envs(self) -> torch.Tensor:
         """Envs whose physics diverged (NaN/inf or absurd velocities); they are reset and counted."""

@@ -78,3 +78,26 @@ def disturbance(env) -> torch.Tensor:
     """
     along_push = (env.base_lin_vel_w[:, :2] * env.push_dir).sum(-1).abs()
     return env.after_push * (-env.push_deviation.norm(dim=-1) - along_push)
+
+
+def energy(env, k_tau: float, k_p: float) -> torch.Tensor:
+    """The paper's r_energy = -k_tau sum_j tau_j^2 - k_p sum_j |dq_j| |tau_j|, averaged over the physics substeps."""
+    tau, dq = env.torques_substeps, env.joint_vel_substeps  # [N, K, J]
+    per_substep = -k_tau * (tau**2).sum(-1) - k_p * (dq.abs() * tau.abs()).sum(-1)
+    return per_substep.mean(dim=1)
+
+
+def pelvis_height(env, target: float) -> torch.Tensor:
+    """min(z_pelvis, target) / target in [0, 1]: progress towards standing (HoST rewards head height likewise)."""
+    return env.base_pos[:, 2].clamp(min=0.0, max=target) / target
+
+
+def upright(env) -> torch.Tensor:
+    """How much the pelvis' up axis points up, in [0, 1]."""
+    return (-env.projected_gravity[:, 2]).clamp(min=0.0)
+
+
+def standing_posture(env, min_height: float, std: float) -> torch.Tensor:
+    """Once standing (pelvis above min_height), exp(-||q - q_default||^2 / std^2): HoST's post-standing target pose."""
+    error = ((env.joint_pos - env.default_joint_pos) ** 2).sum(-1)
+    return (env.base_pos[:, 2] > min_height) * torch.exp(-error / std**2)

@@ -18,7 +18,7 @@ class BatchedMuJoCo:
     """N environments of one MjModel (or N same-sized models for per-env physical randomisation)."""
 
     def __init__(self, models: mujoco.MjModel | list[mujoco.MjModel], num_envs: int, substeps: int,
-                 num_threads: int = 1) -> None:
+                 num_threads: int = 1, with_body_forces: bool = False) -> None:
         self.models = models if isinstance(models, list) else [models] * num_envs
         if len(self.models) != num_envs:
             raise ValueError(f"Got {len(self.models)} models for {num_envs} envs.")
@@ -36,13 +36,24 @@ class BatchedMuJoCo:
         self.state[:] = self.state[0]
         self.substep_states = np.zeros((num_envs, substeps, self.nstate))
         self.substep_sensors = np.zeros((num_envs, substeps, m.nsensordata))
-        self.control = np.zeros((num_envs, substeps, m.nu))
+        # the control vector: ctrl, then (optionally) xfrc_applied, the Cartesian force/torque on every body
+        self.control_spec = mujoco.mjtState.mjSTATE_CTRL
+        width = m.nu
+        if with_body_forces:
+            self.control_spec |= mujoco.mjtState.mjSTATE_XFRC_APPLIED
+            width += 6 * m.nbody
+        self.control = np.zeros((num_envs, substeps, width))
+        self.body_forces = np.zeros((num_envs, m.nbody, 6)) if with_body_forces else None
 
     def step(self, ctrl: np.ndarray) -> None:
-        """Advance every env ``substeps`` physics steps holding ``ctrl`` [N, nu]; fills substep_states/sensors."""
-        self.control[:] = ctrl[:, None, :]
+        """Advance every env ``substeps`` physics steps holding ``ctrl`` [N, nu] (and ``body_forces`` [N, nbody, 6]
+        if enabled); fills substep_states and substep_sensors."""
+        nu = self.model.nu
+        self.control[:, :, :nu] = ctrl[:, None, :]
+        if self.body_forces is not None:
+            self.control[:, :, nu:] = self.body_forces.reshape(self.num_envs, 1, -1)
         self.runner.rollout(
-            self.models, self.datas, self.state, self.control, nstep=self.substeps,
+            self.models, self.datas, self.state, self.control, control_spec=self.control_spec, nstep=self.substeps,
             state=self.substep_states, sensordata=self.substep_sensors, skip_checks=True,
         )
         self.state[:] = self.substep_states[:, -1]

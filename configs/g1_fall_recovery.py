@@ -1,0 +1,67 @@
+"""G1 fall recovery from prone: energy efficiency vs disturbance resistance (the paper's Table I task).
+
+HoST trains four critics (task, style, regularisation, post-task); here all preference-invariant terms are folded
+into the single task group, because MultiCriticPPO's contract is one task critic plus one per objective and the
+relative scale of the folded terms is set directly by their weights below.
+"""
+
+from __future__ import annotations
+
+from pchc_rsl.configs.base import AlgorithmConfig, RunnerConfig, TaskConfig, default_actor, default_critic
+from pchc_rsl.envs.g1_env import RewardTerm
+from pchc_rsl.envs.g1_fall_recovery import FallRecoveryConfig
+from pchc_rsl.robots.g1.constants import FALL_RECOVERY_JOINTS
+
+R = "pchc_rsl.envs.g1_rewards:"
+
+
+def fall_recovery_rewards() -> list[RewardTerm]:
+    return [
+        # task: get up and stay upright
+        RewardTerm(R + "pelvis_height", 3.0, params={"target": 0.72}),
+        RewardTerm(R + "upright", 1.0),
+        # post-standing target posture
+        RewardTerm(R + "standing_posture", 1.0, params={"min_height": 0.65, "std": 1.0}),
+        # regularisation and style
+        RewardTerm(R + "action_rate", -0.01),
+        RewardTerm(R + "joint_limits", -5.0),
+        # objectives, raw
+        RewardTerm(R + "energy", 1.0, group="energy", params={"k_tau": 1e-4, "k_p": 1e-3}),
+        RewardTerm(R + "disturbance", 1.0, group="disturbance"),
+    ]
+
+
+def fall_recovery_env(fast: bool = False) -> FallRecoveryConfig:
+    return FallRecoveryConfig(
+        joints=list(FALL_RECOVERY_JOINTS),
+        timestep=0.005 if fast else 0.002,
+        decimation=4 if fast else 10,
+        initial_joint_noise=0.3,
+        objective_names=["energy", "disturbance"],
+        rewards=fall_recovery_rewards(),
+    )
+
+
+def g1_fall_recovery_task(fast: bool = False) -> TaskConfig:
+    env = fall_recovery_env(fast)
+    actor = default_actor()
+    actor.kwargs = {"history_length": env.history_length}
+    return TaskConfig(
+        name="g1-fall-recovery-fast" if fast else "g1-fall-recovery",
+        env_class="pchc_rsl.envs.g1_fall_recovery:G1FallRecoveryEnv",
+        env=env,
+        num_envs=64,
+        runner=RunnerConfig(
+            experiment_name="g1_fall_recovery",
+            num_steps_per_env=24,
+            max_iterations=3000,
+            save_interval=50,
+            algorithm=AlgorithmConfig(reward_group_names=["task", *env.objective_names]),
+            actor=actor,
+            critic=default_critic(),
+        ),
+    )
+
+
+def g1_fall_recovery_fast_task() -> TaskConfig:
+    return g1_fall_recovery_task(fast=True)

@@ -1,0 +1,159 @@
+"""G1 fall recovery from prone (the paper's Table I task), structured after HoST (Huang et al. 2025).
+
+Episodes start lying face down (optionally face up) with randomised joints. HoST's curriculum is kept: an upward
+assist force on the torso that shrinks as the robot learns to stand, and the action scale eta annealed from 1
+towards 0.25 (eta is in the observation). Phase boundary for the metrics: the robot is "standing" from the first
+step its pelvis is above 0.7 m (HoST's success height) to the end of the episode; before that it is "recovering".
+Success (HoST's rule): the pelvis gets above 0.7 m and never afterwards drops below 0.5 m within the episode.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import torch
+
+from pchc_rsl.envs.g1_env import G1Env, G1EnvConfig
+
+STAND_HEIGHT = 0.7
+FALL_HEIGHT = 0.5
+
+
+def standing_phase(heights: torch.Tensor, stand_height: float = STAND_HEIGHT) -> torch.Tensor:
+    """[T] pelvis heights -> [T] bool: True from the first step above stand_height on."""
+    return torch.cummax((heights > stand_height).int(), dim=0).values.bool()
+
+
+def host_success(heights: torch.Tensor, stand_height: float = STAND_HEIGHT, fall_height: float = FALL_HEIGHT) -> bool:
+    """HoST's rule on one episode's pelvis heights [T]: above stand_height once, never below fall_height after."""
+    standing = standing_phase(heights, stand_height)
+    return bool(standing.any() and not (standing & (heights < fall_height)).any())
+
+
+@dataclass
+class FallRecoveryConfig(G1EnvConfig):
+    supine_probability: float = 0.0
+    """Share of episodes that start face up instead of face down."""
+    initial_height: float = 0.3
+    assist_force: float = 200.0
+    """Upward force (N) on the torso at curriculum level 1 (the robot weighs about 330 N)."""
+    assist_level_step: float = 0.05
+    assist_success_threshold: float = 0.7
+    """Lower the assist by one step when this share of the episodes that just ended succeeded."""
+    eta_initial: float = 1.0
+    eta_final: float = 0.25
+    eta_anneal_steps: int = 30000
+    """Policy steps (per env) over which eta goes linearly from eta_initial to eta_final."""
+    curriculum: bool = True
+    """False: no assist and eta_final from the start (evaluation)."""
+
+
+class G1FallRecoveryEnv(G1Env):
+    """G1Env with prone starts, HoST's curriculum, and Table I metrics."""
+
+    uses_body_forces = True
+
+    def __init__(self, cfg: FallRecoveryConfig, num_envs: int, device: str = "cpu", seed: int = 0) -> None:
+        self.assist_level = 1.0 if cfg.curriculum else 0.0
+        self.global_steps = 0
+        super().__init__(cfg, num_envs, device, seed)
+        self.torso_id = self.model.body("torso_link").id
+        self.reached_standing = torch.zeros(num_envs, dtype=torch.bool)
+        self.fell_after_standing = torch.zeros(num_envs, dtype=torch.bool)
+        self._update_eta()
+
+    def initial_state(self, env_ids: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """Lying face down (pitch +90 deg: the body's forward axis points at the floor) with random yaw and joints."""
+        qpos, qvel = super().initial_state(env_ids)
+        n = len(env_ids)
+        supine = torch.rand(n, generator=self.generator) < self.cfg.supine_probability
+        pitch = torch.where(supine, -math.pi / 2, math.pi / 2)
+        yaw = 2 * math.pi * torch.rand(n, generator=self.generator)
+        # q = q_yaw * q_pitch, (w, x, y, z)
+        cy, sy, cp, sp = (yaw / 2).cos(), (yaw / 2).sin(), (pitch / 2).cos(), (pitch / 2).sin()
+        qpos[:, 3:7] = torch.stack([cy * cp, -sy * sp, cy * sp, sy * cp], -1)
+        qpos[:, 2] = self.cfg.initial_height
+        return qpos, qvel
+
+    def _reset(self, env_ids: torch.Tensor) -> None:
+        if len(env_ids) and hasattr(self, "reached_standing"):
+            self._update_assist(env_ids)
+            self.reached_standing[env_ids] = False
+            self.fell_after_standing[env_ids] = False
+        super()._reset(env_ids)
+
+    # ---------------------------------------------------------------- curriculum
+    def _update_assist(self, env_ids: torch.Tensor) -> None:
+        """HoST-style: shrink the assist once most of the episodes that just ended stood up."""
+        if not self.cfg.curriculum or self.episode_length_buf[env_ids].max() == 0:
+            return
+        success = (self.reached_standing[env_ids] & ~self.fell_after_standing[env_ids]).float().mean().item()
+        if success >= self.cfg.assist_success_threshold:
+            self.assist_level = max(0.0, self.assist_level - self.cfg.assist_level_step)
+
+    def _update_eta(self) -> None:
+        c = self.cfg
+        if c.curriculum:
+            progress = min(1.0, self.global_steps / max(1, c.eta_anneal_steps))
+            eta = c.eta_initial + (c.eta_final - c.eta_initial) * progress
+        else:
+            eta = c.eta_final
+        self.action_scale[:] = eta
+
+    def _before_physics(self) -> None:
+        self.physics.body_forces[:] = 0.0
+        self.physics.body_forces[:, self.torso_id, 2] = self.cfg.assist_force * self.assist_level
+        self.global_steps += 1
+        self._update_eta()
+
+    # ---------------------------------------------------------------- metrics
+    def _terminated(self) -> torch.Tensor:
+        """Lying down is where this task starts, not a failure: episodes end by time-out only."""
+        return torch.zeros(self.num_envs, dtype=torch.bool)
+
+    def metrics(self) -> dict[str, torch.Tensor]:
+        height = self.base_pos[:, 2]
+        self.reached_standing |= height > STAND_HEIGHT
+        self.fell_after_standing |= self.reached_standing & (height < FALL_HEIGHT)
+        standing = self.reached_standing.float()
+        # mechanical energy this step, J: sum_k sum_j |tau_j dq_j| * timestep over the substeps
+        energy = (self.torques_substeps * self.joint_vel_substeps).abs().sum(dim=(1, 2)) * self.cfg.timestep
+        torque = self.torques.abs().sum(-1)  # Nm, summed over joints
+        return {
+            "energy_recovery": energy * (1 - standing),
+            "energy_standing": energy * standing,
+            "torque_recovery": torque * (1 - standing),
+            "torque_standing": torque * standing,
+            "steps_recovery": 1 - standing,
+            "steps_standing": standing,
+        }
+
+    def episode_metrics(self, env_ids: torch.Tensor) -> dict[str, torch.Tensor]:
+        """Table I per finished episode: energy (J, summed over the episode and per phase), torque (Nm, mean over
+        the steps of each phase of sum_j |tau_j|), COM displacement under pushes (m; pelvis as COM proxy: largest
+        horizontal distance from the pre-push position in the window after each push, averaged over pushes) and
+        HoST success."""
+        s = {k: v[env_ids] for k, v in self.metric_sums.items()}
+        nan = torch.tensor(float("nan"))
+        steps = s["steps_recovery"] + s["steps_standing"]
+
+        def mean(total, count):
+            return torch.where(count > 0, total / count.clamp(min=1), nan)
+
+        return {
+            "energy_overall": s["energy_recovery"] + s["energy_standing"],
+            "energy_recovery": s["energy_recovery"],
+            "energy_standing": torch.where(s["steps_standing"] > 0, s["energy_standing"], nan),
+            "torque_overall": mean(s["torque_recovery"] + s["torque_standing"], steps),
+            "torque_recovery": mean(s["torque_recovery"], s["steps_recovery"]),
+            "torque_standing": mean(s["torque_standing"], s["steps_standing"]),
+            "com_displacement": mean(s["push_deviation_sum"], s["pushes"]),
+            "success": (self.reached_standing[env_ids] & ~self.fell_after_standing[env_ids]).float(),
+        }
+
+    def _episode_log(self, done_ids, terminated, unstable) -> dict:
+        log = super()._episode_log(done_ids, terminated, unstable)
+        log["Curriculum/assist_level"] = torch.tensor(self.assist_level)
+        log["Curriculum/action_scale"] = self.action_scale[0, 0].clone()
+        return log

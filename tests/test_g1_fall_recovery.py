@@ -1,0 +1,77 @@
+import pytest
+import torch
+
+from test_g1_env import pytestmark  # noqa: F401  (skip without the G1 model)
+
+from pchc_rsl.configs import task_config
+from pchc_rsl.envs.g1_fall_recovery import host_success, standing_phase
+
+
+def make_env(num_envs=3, **overrides):
+    from pchc_rsl.cli.common import make_env as build
+
+    cfg = task_config("g1-fall-recovery-fast")
+    cfg.num_envs = num_envs
+    for key, value in overrides.items():
+        setattr(cfg.env, key, value)
+    return build(cfg)
+
+
+def test_episodes_start_prone_or_supine():
+    env = make_env()
+    assert env.num_actions == 23
+    # face down: the body's forward axis points at the floor, so gravity in the base frame is +x
+    torch.testing.assert_close(env.projected_gravity, torch.tensor([[1.0, 0.0, 0.0]]).expand(3, 3), atol=1e-5, rtol=0)
+    assert (env.base_pos[:, 2] == pytest.approx(0.3))
+    supine = make_env(supine_probability=1.0)
+    torch.testing.assert_close(supine.projected_gravity, torch.tensor([[-1.0, 0.0, 0.0]]).expand(3, 3), atol=1e-5, rtol=0)
+
+
+def test_energy_reward_equals_a_hand_computation():
+    from pchc_rsl.envs import g1_rewards
+
+    env = make_env(num_envs=1)
+    tau = torch.tensor([[[2.0, -3.0] + [0.0] * 21, [1.0, 1.0] + [0.0] * 21]])  # [1, K=2, 23]
+    dq = torch.tensor([[[0.5, 2.0] + [0.0] * 21, [-1.0, 0.0] + [0.0] * 21]])
+    env.torques_substeps, env.joint_vel_substeps = tau, dq
+    k_tau, k_p = 0.1, 0.01
+    substep_1 = -k_tau * (4 + 9) - k_p * (0.5 * 2 + 2 * 3)
+    substep_2 = -k_tau * (1 + 1) - k_p * (1 * 1 + 0 * 1)
+    assert g1_rewards.energy(env, k_tau, k_p).item() == pytest.approx((substep_1 + substep_2) / 2)
+
+
+def test_phase_split_and_success_rule_on_scripted_heights():
+    rises_and_stays = torch.tensor([0.2, 0.4, 0.71, 0.6, 0.55, 0.72])
+    assert standing_phase(rises_and_stays).tolist() == [False, False, True, True, True, True]
+    assert host_success(rises_and_stays)
+    falls_again = torch.tensor([0.2, 0.75, 0.74, 0.45, 0.8])
+    assert not host_success(falls_again)
+    never_up = torch.tensor([0.2, 0.3, 0.69, 0.1])
+    assert not standing_phase(never_up).any() and not host_success(never_up)
+    low_before_standing_is_fine = torch.tensor([0.45, 0.1, 0.9])
+    assert host_success(low_before_standing_is_fine)
+
+
+def test_env_tracks_success_like_the_rule():
+    env = make_env(num_envs=3)
+    trajectories = torch.tensor([[0.2, 0.75, 0.6, 0.72], [0.2, 0.75, 0.45, 0.8], [0.2, 0.3, 0.4, 0.3]])
+    for t in range(trajectories.shape[1]):
+        env.base_pos = env.base_pos.clone()
+        env.base_pos[:, 2] = trajectories[:, t]
+        env.metrics()
+    tracked = (env.reached_standing & ~env.fell_after_standing).tolist()
+    assert tracked == [host_success(h) for h in trajectories]
+
+
+def test_curriculum_anneals_eta_and_applies_the_assist():
+    env = make_env(num_envs=2, eta_anneal_steps=10)
+    assert env.action_scale[0].item() == pytest.approx(1.0)
+    for _ in range(10):
+        env.step(torch.zeros(2, 23))
+    assert env.action_scale[0].item() == pytest.approx(0.25)
+    torso = env.model.body("torso_link").id
+    assert env.physics.body_forces[0, torso, 2] == pytest.approx(env.cfg.assist_force * env.assist_level)
+    evaluation = make_env(num_envs=2, curriculum=False)
+    evaluation.step(torch.zeros(2, 23))
+    assert evaluation.action_scale[0].item() == pytest.approx(0.25)
+    assert evaluation.physics.body_forces.max() == 0.0
