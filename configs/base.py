@@ -136,3 +136,18 @@ class TaskConfig:
             "seed": self.seed,
             "device": self.device,
         }
+
+
+def apply_saved(obj: Any, saved: dict) -> None:
+    """Overwrite a config dataclass with a saved plain-dict version of it (as written by ``dataclasses.asdict``),
+    rebuilding nested dataclasses and lists of them."""
+    for key, value in saved.items():
+        if not hasattr(obj, key):
+            raise ValueError(f"Saved config has '{key}', which {type(obj).__name__} does not: another version?")
+        current = getattr(obj, key)
+        if dataclasses.is_dataclass(current) and isinstance(value, dict):
+            apply_saved(current, value)
+        elif isinstance(current, list) and current and dataclasses.is_dataclass(current[0]):
+            setattr(obj, key, [type(current[0])(**item) for item in value])
+        else:
+            setattr(obj, key, value)

@@ -401,15 +401,16 @@ class G1Env(VecEnv):
         self._accumulate_metrics(push_window_closing=inside & (self.push_window == 1))
         self.push_window = (self.push_window - 1).clamp(min=0)
 
-        log = self._episode_log(dones.nonzero(as_tuple=False).squeeze(-1), terminated, unstable)
         done_ids = dones.nonzero(as_tuple=False).squeeze(-1)
+        finished = {"env_ids": done_ids, "fell": terminated[done_ids], **self.episode_metrics(done_ids)}
+        log = self._episode_log(done_ids, finished)
         self._reset(done_ids)
         if self.cfg.preference_resample_prob > 0 and self.fixed_preference is None:
             resample = torch.rand(self.num_envs, generator=self.generator) < self.cfg.preference_resample_prob
             self._sample_preference(resample.nonzero(as_tuple=False).squeeze(-1))
         self.frames[:, 1:] = self.frames[:, :-1].clone()
         self.frames[:, 0] = self._frame(noise=True)
-        extras = {"time_outs": time_outs, "reward_groups": reward_groups, "log": log}
+        extras = {"time_outs": time_outs, "reward_groups": reward_groups, "log": log, "episode_metrics": finished}
         return self.get_observations(), reward, dones, extras
 
     def _before_physics(self) -> None:
@@ -466,7 +467,7 @@ class G1Env(VecEnv):
             "push_deviation": torch.where(s["pushes"] > 0, s["push_deviation_sum"] / s["pushes"].clamp(min=1), nan),
         }
 
-    def _episode_log(self, done_ids: torch.Tensor, terminated: torch.Tensor, unstable: torch.Tensor) -> dict:
+    def _episode_log(self, done_ids: torch.Tensor, finished: dict[str, torch.Tensor]) -> dict:
         log = {"Episode_Termination/unstable_resets_total": torch.tensor(float(self.unstable_resets))}
         if len(done_ids) == 0:
             return log
@@ -474,9 +475,11 @@ class G1Env(VecEnv):
         log["Episode_Reward/task"] = sums[:, 0].mean()
         for i, name in enumerate(self.cfg.objective_names):
             log[f"Episode_Objective/{name}"] = sums[:, 1 + i].mean()
-        for key, value in self.episode_metrics(done_ids).items():
+        for key, value in finished.items():
+            if key in ("env_ids", "fell"):
+                continue
             value = value[~value.isnan()]
             if len(value):
                 log[f"Metrics/{key}"] = value.mean()
-        log["Episode_Termination/fall"] = terminated[done_ids].float().mean()
+        log["Episode_Termination/fall"] = finished["fell"].float().mean()
         return log

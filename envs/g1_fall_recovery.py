@@ -152,8 +152,8 @@ class G1FallRecoveryEnv(G1Env):
             "success": (self.reached_standing[env_ids] & ~self.fell_after_standing[env_ids]).float(),
         }
 
-    def _episode_log(self, done_ids, terminated, unstable) -> dict:
-        log = super()._episode_log(done_ids, terminated, unstable)
+    def _episode_log(self, done_ids: torch.Tensor, finished: dict[str, torch.Tensor]) -> dict:
+        log = super()._episode_log(done_ids, finished)
         log["Curriculum/assist_level"] = torch.tensor(self.assist_level)
         log["Curriculum/action_scale"] = self.action_scale[0, 0].clone()
         return log

@@ -35,15 +35,11 @@ def main(argv: list[str] | None = None) -> None:
 
 
 def restore_config(cfg, saved: dict) -> None:
-    """Apply a checkpoint's saved model settings to a fresh TaskConfig, so the networks are rebuilt identically."""
-    runner = saved["runner"]
-    for part in ("actor", "critic"):
-        model = getattr(cfg.runner, part)
-        for key, value in runner[part].items():
-            setattr(model, key, value)
-    cfg.runner.obs_groups = runner["obs_groups"]
-    for key, value in saved["env"].items():
-        setattr(cfg.env, key, value)
+    """Apply a checkpoint's saved env and model settings to a fresh TaskConfig, so everything is rebuilt as trained."""
+    from pchc_rsl.configs.base import apply_saved
+
+    apply_saved(cfg.runner, saved["runner"])
+    apply_saved(cfg.env, saved["env"])
 
 
 if __name__ == "__main__":

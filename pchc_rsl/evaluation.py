@@ -1,0 +1,212 @@
+"""The paper's evaluation: a policy at fixed preferences under the task's evaluation preset, Pareto metrics,
+Table I / II, and dynamic preference switching.
+
+Works on any env that follows the contract (set_preference, extras["episode_metrics"] at episode ends); the task
+specifics (which metrics form the front, the table columns, the evaluation preset) are in TASK_EVALUATION.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+import sys
+from dataclasses import dataclass, field
+
+import numpy as np
+import torch
+
+from pchc_rsl.pareto import hypervolume, non_dominated, sparsity
+
+
+@dataclass
+class TaskEvaluation:
+    """What to measure for one task family."""
+
+    table: str
+    columns: dict[str, str]
+    """metric key -> column title of the paper's table."""
+    front: tuple[tuple[str, float], tuple[str, float]]
+    """The two objective metrics of the Pareto plot, each with the sign that makes it 'more is better'."""
+    reference_point: tuple[float, float]
+    """Hypervolume reference point in the signed front coordinates (stated with every figure)."""
+    push_presets: list[str] = field(default_factory=lambda: ["mild"])
+    command: tuple[float, float, float] | None = None
+
+
+WALK_EVALUATION = TaskEvaluation(
+    table="Table II (walking)",
+    columns={"stride_length": "Avg. Stride (m)", "push_deviation": "Traj. Deviation (m)", "fall_rate": "Falls (%)"},
+    front=(("stride_length", 1.0), ("push_deviation", -1.0)),
+    reference_point=(0.0, -2.0),
+    push_presets=["mild"],
+    command=(0.5, 0.0, 0.0),
+)
+FALL_RECOVERY_EVALUATION = TaskEvaluation(
+    table="Table I (fall recovery)",
+    columns={
+        "energy_overall": "Avg. Energy Overall (J)",
+        "energy_recovery": "Avg. Energy Fall Recovery (J)",
+        "energy_standing": "Avg. Energy Recovery (J)",
+        "torque_overall": "Avg. Torque Overall (Nm)",
+        "torque_recovery": "Avg. Torque Fall Recovery (Nm)",
+        "torque_standing": "Avg. Torque Recovery (Nm)",
+        "mild/com_displacement": "COM displacement (m)",
+        "strong/success": "Success rate (%)",
+    },
+    front=(("energy_overall", -1.0), ("mild/com_displacement", -1.0)),
+    reference_point=(-3000.0, -3.0),
+    push_presets=["mild", "strong"],
+)
+TASK_EVALUATION = {
+    "g1-walk": WALK_EVALUATION,
+    "g1-walk-fast": WALK_EVALUATION,
+    "g1-fall-recovery": FALL_RECOVERY_EVALUATION,
+    "g1-fall-recovery-fast": FALL_RECOVERY_EVALUATION,
+}
+
+
+def evenly_spaced_preferences(count: int) -> list[tuple[float, float]]:
+    """(1, 0), ..., (0, 1) in ``count`` steps."""
+    if count < 2:
+        raise ValueError(f"Need at least 2 preferences, got {count}.")
+    return [(1 - i / (count - 1), i / (count - 1)) for i in range(count)]
+
+
+def evaluation_preset(cfg, push_preset: str, evaluation: TaskEvaluation):
+    """A copy of a task config for evaluation: no randomisation, no noise, no curriculum, the preset's pushes."""
+    from pchc_rsl.envs.g1_env import PUSH_PRESETS
+
+    cfg = copy.deepcopy(cfg)
+    env = cfg.env
+    env.randomization.enabled = False
+    env.observation_noise = 0.0
+    env.preference_resample_prob = 0.0
+    env.push = copy.deepcopy(PUSH_PRESETS[push_preset])
+    if hasattr(env, "curriculum"):
+        env.curriculum = False
+    if evaluation.command is not None:
+        vx, vy, wz = evaluation.command
+        env.command_ranges = {"lin_vel_x": (vx, vx), "lin_vel_y": (vy, vy), "ang_vel_z": (wz, wz)}
+    return cfg
+
+
+def aggregate(episodes: list[dict[str, float]]) -> dict[str, float]:
+    """Mean of each metric over episodes, ignoring NaN (a metric undefined in an episode, e.g. no push);
+    'success' and 'fell' become percentages."""
+    keys = sorted({k for e in episodes for k in e})
+    out = {}
+    for key in keys:
+        values = np.array([e[key] for e in episodes if key in e], dtype=float)
+        values = values[~np.isnan(values)]
+        mean = float(values.mean()) if len(values) else float("nan")
+        if key in ("success", "fell"):
+            mean *= 100.0
+        out["fall_rate" if key == "fell" else key] = mean
+    return out
+
+
+def run_episodes(env, policy, preference, episodes: int, progress: str = "") -> tuple[list[dict], np.ndarray]:
+    """Roll the deterministic policy until every env finished ``episodes`` episodes at ``preference``.
+
+    Returns one metric dict per finished episode and the mean per-step reward groups [T, 1 + m] of the first
+    episode round (for step-wise curves)."""
+    finished = torch.zeros(env.num_envs, dtype=torch.long)
+    results, curve = [], []
+    steps = 0
+    total = episodes * env.max_episode_length
+    with torch.inference_mode():  # the env's buffers are inference tensors once stepped in this mode
+        env.set_preference(preference)
+        env._reset(torch.arange(env.num_envs))
+        obs = env.get_observations()
+        while (finished < episodes).any():
+            obs, _, _, extras = env.step(policy(obs))
+            if steps < env.max_episode_length:
+                curve.append(extras["reward_groups"].mean(0).numpy())
+            steps += 1
+            done = extras["episode_metrics"]
+            for row, env_id in enumerate(done["env_ids"].tolist()):
+                if finished[env_id] < episodes:
+                    results.append({k: float(v[row]) for k, v in done.items() if k != "env_ids"})
+                    finished[env_id] += 1
+            if progress and steps % 25 == 0:
+                _progress(progress, min(steps, total), total)
+    if progress:
+        _progress(progress, total, total, end=True)
+    return results, np.array(curve)
+
+
+def _progress(label: str, done: int, total: int, end: bool = False) -> None:
+    width = 30
+    filled = int(width * done / max(total, 1))
+    sys.stderr.write(f"\r{label} [{'#' * filled}{'.' * (width - filled)}] {done}/{total}")
+    if end:
+        sys.stderr.write("\n")
+    sys.stderr.flush()
+
+
+def front_points(rows: list[dict], evaluation: TaskEvaluation) -> np.ndarray:
+    """[n, 2] signed objective metrics (more is better) of the evaluated preferences."""
+    (a, sa), (b, sb) = evaluation.front
+    return np.array([[sa * r["metrics"][a], sb * r["metrics"][b]] for r in rows])
+
+
+def front_summary(points: np.ndarray, evaluation: TaskEvaluation) -> dict:
+    """Hypervolume (with its reference point) and sparsity of the non-dominated subset of ``points``."""
+    finite = points[np.isfinite(points).all(axis=1)]
+    if len(finite) == 0:
+        return {"hypervolume": 0.0, "sparsity": float("nan"), "reference_point": list(evaluation.reference_point),
+                "num_points": 0}
+    front = non_dominated(finite)
+    return {
+        "hypervolume": hypervolume(front, evaluation.reference_point),
+        "sparsity": sparsity(front),
+        "reference_point": list(evaluation.reference_point),
+        "num_points": int(len(front)),
+    }
+
+
+def markdown_table(results: list[dict], evaluation: TaskEvaluation) -> str:
+    """The paper's table: one row per (checkpoint, preference)."""
+    header = ["Policy", "Preference", *evaluation.columns.values()]
+    lines = [f"{evaluation.table}", "", "| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    for result in results:
+        for row in result["rows"]:
+            lam = "(" + ", ".join(f"{x:.2f}" for x in row["preference"]) + ")"
+            cells = [_fmt(row["metrics"].get(key, math.nan)) for key in evaluation.columns]
+            lines.append("| " + " | ".join([result["name"], lam, *cells]) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def _fmt(value: float) -> str:
+    return "n/a" if value != value else f"{value:.2f}"
+
+
+def switching_run(env, policy, before, after, switch_step: int) -> dict:
+    """One episode at ``before`` switched to ``after`` at ``switch_step``: per-step mean objective rewards [T, m],
+    falls, and the time (s) after the switch until the objective curves settle (their 0.5 s moving average stays
+    within 10% of the range of the final 1 s average)."""
+    curve, falls = [], 0
+    with torch.inference_mode():
+        env.set_preference(before)
+        env._reset(torch.arange(env.num_envs))
+        obs = env.get_observations()
+        for step in range(env.max_episode_length - 1):
+            if step == switch_step:
+                env.set_preference(after)
+            obs, _, _, extras = env.step(policy(obs))
+            curve.append(extras["reward_groups"][:, 1:].mean(0).numpy())
+            falls += int(extras["episode_metrics"]["fell"].sum())
+    curve = np.array(curve)
+    dt = env.dt
+    window = max(1, int(round(0.5 / dt)))
+    smooth = np.stack([np.convolve(c, np.ones(window) / window, mode="same") for c in curve.T], axis=1)
+    tail = smooth[-int(round(1.0 / dt)):].mean(axis=0)
+    tolerance = 0.1 * (np.ptp(smooth[switch_step:], axis=0) + 1e-9)
+    settled = np.abs(smooth - tail) <= tolerance
+    settle_step = switch_step
+    for t in range(len(smooth) - 1, switch_step - 1, -1):
+        if not settled[t].all():
+            settle_step = t + 1
+            break
+    return {"curve": curve, "falls": falls, "settle_time_s": (settle_step - switch_step) * dt, "dt": dt,
+            "switch_step": switch_step}

@@ -1,0 +1,65 @@
+import json
+import math
+
+import numpy as np
+import pytest
+
+from test_g1_env import pytestmark  # noqa: F401  (skip without the G1 model)
+
+from pchc_rsl.evaluation import WALK_EVALUATION, aggregate, evenly_spaced_preferences, front_summary
+
+
+def test_aggregate_by_hand():
+    episodes = [
+        {"stride_length": 0.5, "push_deviation": float("nan"), "fell": 0.0},
+        {"stride_length": 0.3, "push_deviation": 0.2, "fell": 1.0},
+        {"stride_length": 0.4, "push_deviation": 0.4, "fell": 0.0, "success": 1.0},
+    ]
+    out = aggregate(episodes)
+    assert out["stride_length"] == pytest.approx(0.4)
+    assert out["push_deviation"] == pytest.approx(0.3)  # the episode without a push does not count
+    assert out["fall_rate"] == pytest.approx(100 / 3)
+    assert out["success"] == pytest.approx(100.0)
+
+
+def test_front_summary_by_hand():
+    # stride (more is better) and -deviation; reference (0, -2): boxes 0.4 x 1.8 and 0.6 x 1.5 overlap 0.4 x 1.5
+    points = np.array([[0.4, -0.2], [0.6, -0.5], [0.3, -0.6]])  # the last is dominated
+    summary = front_summary(points, WALK_EVALUATION)
+    assert summary["num_points"] == 2
+    assert summary["hypervolume"] == pytest.approx(0.4 * 1.8 + 0.6 * 1.5 - 0.4 * 1.5)
+    assert summary["sparsity"] == pytest.approx((0.2**2 + 0.3**2) / 1)
+    assert evenly_spaced_preferences(3) == [(1.0, 0.0), (0.5, 0.5), (0.0, 1.0)]
+
+
+@pytest.mark.parametrize("task, columns", [
+    ("g1-walk-fast", ["Avg. Stride (m)", "Traj. Deviation (m)"]),
+    ("g1-fall-recovery-fast", ["Avg. Energy Overall (J)", "COM displacement (m)", "Success rate (%)"]),
+])
+def test_eval_cli_writes_the_tables_and_plots(tmp_path, task, columns):
+    from pchc_rsl.cli import eval as eval_cli
+    from pchc_rsl.cli import train
+
+    train.main(["--task", task, "--num-envs", "2", "--max-iterations", "1", "--log-dir", str(tmp_path / "run")])
+    out = tmp_path / "eval"
+    args = [str(tmp_path / "run" / "model_0.pt"), "--num-envs", "2", "--episode-length", "0.3", "--preferences", "2",
+            "--output", str(out)]
+    eval_cli.main(args + ["--switch"])
+    table = (out / "table.md").read_text()
+    for column in columns:
+        assert column in table
+    assert table.count("| run/model_0.pt |") == 2
+    results = json.loads((out / "results.json").read_text())
+    rows = results["results"][0]["rows"]
+    assert [r["preference"] for r in rows] == [[1.0, 0.0], [0.0, 1.0]]
+    assert "reference_point" in results["results"][0]["front"]
+    assert (out / "pareto.png").stat().st_size > 0 and (out / "switching.png").exists()
+    # deterministic for a given seed
+    eval_cli.main(args[:-1] + [str(tmp_path / "again")])
+    again = json.loads((tmp_path / "again" / "results.json").read_text())
+    first = [r["metrics"] for r in rows]
+    second = [r["metrics"] for r in again["results"][0]["rows"]]
+    assert json.dumps(first) == json.dumps(second)
+    if "Energy" in columns[0]:
+        assert (out / "energy_curve.png").exists()
+        assert all(not math.isnan(r["metrics"]["energy_overall"]) for r in rows)
