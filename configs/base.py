@@ -13,8 +13,10 @@ ACTOR_CLASSES = {
     "pci": "pchc_rsl.modules:PCIActor",
     "gated": "pchc_rsl.modules:GatedMoEActor",
     "mlp": "pchc_rsl.modules:PreferenceMLPModel",
+    "no-preference": "rsl_rl.models:MLPModel",
 }
-"""Short names for the actor variants the CLI offers (PCI, the learned-gate ablation, a plain MLP)."""
+"""Short names for the actor variants the CLI offers: PCI, the learned-gate ablation, a plain MLP on [obs, lambda],
+and rsl-rl's MLP without the preference input (the prior work's single fixed weighting; needs a fixed preference)."""
 
 
 @dataclass
@@ -124,6 +126,8 @@ class TaskConfig:
     num_envs: int = 64
     seed: int = 1
     device: str = "cpu"
+    fixed_preference: list[float] | None = None
+    """Hold lambda constant during training (the fixed-preference baselines); None samples it per episode."""
 
     def to_dict(self) -> dict:
         """Plain-data view of the whole config (saved next to and inside every checkpoint)."""
@@ -135,6 +139,7 @@ class TaskConfig:
             "num_envs": self.num_envs,
             "seed": self.seed,
             "device": self.device,
+            "fixed_preference": self.fixed_preference,
         }
 
 

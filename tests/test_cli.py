@@ -60,3 +60,17 @@ def test_a_checkpoint_from_another_task_is_refused(trained, tmp_path):
     cfg.num_envs = 4
     with pytest.raises(ValueError, match="trained on task 'g1-walk'"):
         make_runner(cfg).load(str(tmp_path / "other.pt"))
+
+
+def test_baseline_flags(tmp_path):
+    with pytest.raises(SystemExit, match="give --fixed-preference"):
+        train_cli.main(["--task", "toy", "--actor", "no-preference"])
+    with pytest.raises(SystemExit, match="sum to 1"):
+        train_cli.main(["--task", "toy", "--fixed-preference", "0.5,0.6"])
+    train_cli.main(["--task", "toy", "--actor", "no-preference", "--fixed-preference", "0.25,0.75", "--num-envs", "4",
+                    "--max-iterations", "1", "--log-dir", str(tmp_path)])
+    checkpoint = torch.load(tmp_path / "model_0.pt", weights_only=True)
+    assert checkpoint["config"]["fixed_preference"] == [0.25, 0.75]
+    assert checkpoint["config"]["runner"]["obs_groups"]["actor"] == ["policy"]
+    # the policy never sees lambda: its first layer takes the policy group only
+    assert checkpoint["actor_state_dict"]["mlp.0.weight"].shape[1] == 24

@@ -16,7 +16,10 @@ from pchc_rsl.runners import PCHCRunner
 def make_env(cfg: TaskConfig):
     """Instantiate the task's VecEnv on cfg.device with cfg.num_envs and cfg.seed."""
     env_class = resolve_callable(cfg.env_class)
-    return env_class(cfg.env, cfg.num_envs, cfg.device, cfg.seed)
+    env = env_class(cfg.env, cfg.num_envs, cfg.device, cfg.seed)
+    if cfg.fixed_preference is not None:
+        env.set_preference(cfg.fixed_preference)
+    return env
 
 
 def make_runner(cfg: TaskConfig, log_dir: str | None = None) -> PCHCRunner:

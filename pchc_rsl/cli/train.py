@@ -7,6 +7,7 @@ import datetime
 import os
 
 from pchc_rsl.configs import ACTOR_CLASSES, TASKS, select_actor, task_config
+from pchc_rsl.preference import validate_preference
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -20,6 +21,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--seed", type=int, help="random seed (default: the task's)")
     parser.add_argument("--device", help="torch device, e.g. cpu or cuda:0 (default: the task's)")
     parser.add_argument("--actor", choices=sorted(ACTOR_CLASSES), help="actor variant (default: pci)")
+    parser.add_argument("--fixed-preference", metavar="L1,L2",
+                        help="hold lambda constant during training (baselines); required by --actor no-preference")
     parser.add_argument("--log-dir", help="where checkpoints and TensorBoard events go (default: logs/TASK/DATE)")
     parser.add_argument("--resume", metavar="CKPT", help="checkpoint to continue from")
     return parser
@@ -41,6 +44,16 @@ def main(argv: list[str] | None = None) -> None:
         cfg.device = args.device
     if args.actor is not None:
         select_actor(cfg.runner.actor, args.actor)
+    if args.fixed_preference is not None:
+        try:
+            lam = validate_preference([float(x) for x in args.fixed_preference.split(",")], len(cfg.env.objective_names))
+        except ValueError as error:
+            raise SystemExit(f"pchc-train: --fixed-preference {args.fixed_preference}: {error}")
+        cfg.fixed_preference = lam.tolist()
+    if args.actor == "no-preference":
+        if cfg.fixed_preference is None:
+            raise SystemExit("pchc-train: --actor no-preference trains one fixed weighting; give --fixed-preference.")
+        cfg.runner.obs_groups["actor"] = [g for g in cfg.runner.obs_groups["actor"] if g != "preference"]
     log_dir = args.log_dir or os.path.join(
         "logs", cfg.name, datetime.datetime.now().strftime("%Y-%m-%d_%H-%M-%S")
     )
