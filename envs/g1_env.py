@@ -120,7 +120,8 @@ class G1Env(VecEnv):
     def __init__(self, cfg: G1EnvConfig, num_envs: int, device: str = "cpu", seed: int = 0) -> None:
         if cfg.preference_concentration <= 0:
             raise ValueError("preference_concentration must be > 0.")
-        self.cfg, self.num_envs, self.device = cfg, num_envs, device
+        # the physics runs on the CPU, so the env's tensors live there; the runner moves them to its own device
+        self.cfg, self.num_envs, self.device = cfg, num_envs, "cpu"
         self.num_objectives = len(cfg.objective_names)
         self.num_actions = len(cfg.joints)
         self.dt = cfg.timestep * cfg.decimation
