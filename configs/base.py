@@ -20,6 +20,24 @@ and rsl-rl's MLP without the preference input (the prior work's single fixed wei
 
 
 @dataclass
+class AMPConfig:
+    """The AMP style reward (see pchc_rsl.amp.style.AMPStyle); off when there are no motion files."""
+
+    motion_files: list[str] = field(default_factory=list)
+    """Motion files or folders (LAFAN1 G1 CSV, npz)."""
+    joint_names: list[str] = field(default_factory=list)
+    """The AMP state: these joints' positions, in the env's amp window order."""
+    window: int = 5
+    style_reward_scale: float = 0.02
+    """c, per policy step (0.02 = 1.0 per second at 50 Hz, on the scale of the env's dt-weighted terms)."""
+    grad_penalty_coef: float = 5.0
+    """alpha^d."""
+    learning_rate: float = 1e-4
+    num_updates: int = 4
+    batch_size: int = 512
+
+
+@dataclass
 class AlgorithmConfig:
     class_name: str = "pchc_rsl.algorithms:MultiCriticPPO"
     num_learning_epochs: int = 5
@@ -37,6 +55,7 @@ class AlgorithmConfig:
     """Names of the critics for logging: task first, then each objective."""
     task_advantage_weight: float = 1.0
     """w_task in A = w_task A_task + sum_i lambda_i A_obj_i (1 in the paper)."""
+    amp_cfg: AMPConfig | None = None
 
 
 @dataclass

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from pchc_rsl.configs.base import AlgorithmConfig, RunnerConfig, TaskConfig, default_actor, default_critic
+from pchc_rsl.configs.base import AMPConfig, AlgorithmConfig, RunnerConfig, TaskConfig, default_actor, default_critic
 from pchc_rsl.envs.g1_env import G1EnvConfig, RewardTerm
 from pchc_rsl.robots.g1.constants import WALK_JOINTS
 
@@ -56,7 +56,10 @@ def g1_walk_task(fast: bool = False) -> TaskConfig:
             num_steps_per_env=24,
             max_iterations=3000,
             save_interval=50,
-            algorithm=AlgorithmConfig(reward_group_names=["task", *env.objective_names]),
+            algorithm=AlgorithmConfig(
+                reward_group_names=["task", *env.objective_names],
+                amp_cfg=AMPConfig(joint_names=list(env.joints), window=env.amp_window),
+            ),
             actor=actor,
             critic=default_critic(),
         ),

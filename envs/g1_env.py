@@ -75,6 +75,8 @@ class G1EnvConfig:
     """eta: q_target = q_default + eta * a."""
     action_clip: float = 10.0
     history_length: int = 5
+    amp_window: int = 5
+    """Frames of actuated joint positions in the ``amp`` observation group (the AMP state window)."""
     observation_noise: float = 1.0
     """Multiplies the per-quantity noise scales (0 turns noise off)."""
     command_ranges: dict[str, tuple[float, float]] = field(
@@ -158,6 +160,7 @@ class G1Env(VecEnv):
         self.action_scale = torch.full((n, 1), cfg.action_scale)
         frame_dim = 3 + 3 + 3 * j + 1 + (3 if cfg.use_command else 0)
         self.frames = torch.zeros(n, cfg.history_length + 1, frame_dim)
+        self.amp_frames = torch.zeros(n, cfg.amp_window, j)  # oldest first
         # contacts, strides
         self.foot_contact = torch.zeros(n, 2, dtype=torch.bool)
         self.first_contact = torch.zeros(n, 2, dtype=torch.bool)
@@ -284,6 +287,7 @@ class G1Env(VecEnv):
             value[env_ids] = 0.0
         frame = self._frame()[env_ids]
         self.frames[env_ids] = frame.unsqueeze(1)
+        self.amp_frames[env_ids] = self.joint_pos[env_ids].unsqueeze(1)
 
     def initial_state(self, env_ids: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """Standing at the default pose with joint noise (tasks override for other starts). [n, nq], [n, nv]."""
@@ -371,7 +375,12 @@ class G1Env(VecEnv):
             dim=-1,
         )
         return TensorDict(
-            {"policy": self.frames.flatten(1).clone(), "preference": self.preference.clone(), "critic": critic},
+            {
+                "policy": self.frames.flatten(1).clone(),
+                "preference": self.preference.clone(),
+                "critic": critic,
+                "amp": self.amp_frames.flatten(1).clone(),
+            },
             batch_size=[self.num_envs],
         )
 
@@ -411,6 +420,8 @@ class G1Env(VecEnv):
             self._sample_preference(resample.nonzero(as_tuple=False).squeeze(-1))
         self.frames[:, 1:] = self.frames[:, :-1].clone()
         self.frames[:, 0] = self._frame(noise=True)
+        self.amp_frames[:, :-1] = self.amp_frames[:, 1:].clone()
+        self.amp_frames[:, -1] = self.joint_pos
         extras = {"time_outs": time_outs, "reward_groups": reward_groups, "log": log, "episode_metrics": finished}
         return self.get_observations(), reward, dones, extras
 

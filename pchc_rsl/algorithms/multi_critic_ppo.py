@@ -9,8 +9,9 @@ from rsl_rl.algorithms import PPO
 from rsl_rl.env import VecEnv
 from rsl_rl.extensions import resolve_rnd_config, resolve_symmetry_config
 from rsl_rl.models import MLPModel
-from rsl_rl.utils import resolve_class, resolve_obs_groups
+from rsl_rl.utils import reduce_gradients_in_buckets, resolve_class, resolve_obs_groups
 
+from pchc_rsl.amp.style import AMPStyle
 from pchc_rsl.storage import MultiCriticRolloutStorage
 
 
@@ -35,6 +36,7 @@ class MultiCriticPPO(PPO):
         preference_group: str = "preference",
         reward_group_names: list[str] | None = None,
         task_advantage_weight: float = 1.0,
+        amp_cfg: dict | None = None,
         **kwargs,
     ) -> None:
         if kwargs.get("normalize_advantage_per_mini_batch"):
@@ -53,6 +55,7 @@ class MultiCriticPPO(PPO):
                 "(task first, then one per objective)."
             )
         self.return_stats: dict[str, float] = {}
+        self.amp = AMPStyle(device=self.device, **amp_cfg) if amp_cfg else None
 
     def process_env_step(
         self, obs: TensorDict, rewards: torch.Tensor, dones: torch.Tensor, extras: dict
@@ -67,6 +70,8 @@ class MultiCriticPPO(PPO):
                 f"{self.num_critics}] (task + {self.num_critics - 1} objectives, as many as the preference has)."
             )
         self.transition.rewards = groups.clone()
+        if self.amp is not None:
+            self.transition.rewards[:, 0] += self.amp.reward(obs).to(self.device)  # style is preference-invariant
         self.transition.dones = dones
         if self.rnd:
             self.intrinsic_rewards = self.rnd.get_intrinsic_reward(obs)
@@ -118,7 +123,50 @@ class MultiCriticPPO(PPO):
     def update(self) -> dict[str, float]:
         loss_dict = super().update()
         loss_dict.update(self.return_stats)
+        if self.amp is not None:
+            reduce = self._reduce_amp_gradients if self.is_multi_gpu else None
+            loss_dict.update(self.amp.update(reduce))
         return loss_dict
+
+    def _reduce_amp_gradients(self, params) -> None:
+        reduce_gradients_in_buckets(params, self.gpu_world_size, self.grad_reduce_bucket_mb)
+
+    def save(self) -> dict:
+        saved = super().save()
+        if self.amp is not None:
+            saved["amp_state_dict"] = self.amp.state_dict()
+        return saved
+
+    def load(self, loaded_dict: dict, load_cfg: dict | None, strict: bool) -> bool:
+        load_iteration = super().load(loaded_dict, load_cfg, strict)
+        if self.amp is not None and "amp_state_dict" in loaded_dict and (load_cfg is None or load_cfg.get("amp", True)):
+            self.amp.load_state_dict(loaded_dict["amp_state_dict"])
+        return load_iteration
+
+    def broadcast_parameters(self) -> None:
+        super().broadcast_parameters()
+        if self.amp is not None:
+            for tensor in self.amp.discriminator.state_dict().values():
+                torch.distributed.broadcast(tensor, src=0)
+
+    @staticmethod
+    def _resolve_amp(amp_cfg: dict | None, obs: TensorDict, env: VecEnv) -> dict | None:
+        """Fill the AMP input width and the motion frame rate (the policy rate); None (with a note) without motions."""
+        if not amp_cfg:
+            return None
+        amp_cfg = dict(amp_cfg)
+        if not amp_cfg.get("motion_files"):
+            print("AMP is off: no motion files given (pchc-train --motion-files PATH, e.g. a LAFAN1 G1 folder).")
+            return None
+        group = amp_cfg.get("obs_group", "amp")
+        if group not in obs:
+            raise ValueError(f"AMP reads the '{group}' observation group, which the environment does not provide.")
+        amp_cfg["input_dim"] = obs[group].shape[-1]
+        if "fps" not in amp_cfg:
+            if not hasattr(env, "dt"):
+                raise ValueError("AMP needs amp_cfg['fps'] (the policy rate) or an env with a 'dt' attribute.")
+            amp_cfg["fps"] = 1.0 / env.dt
+        return amp_cfg
 
     @staticmethod
     def construct_algorithm(obs: TensorDict, env: VecEnv, cfg: dict, device: str) -> MultiCriticPPO:
@@ -143,6 +191,7 @@ class MultiCriticPPO(PPO):
                 f"does not provide (groups: {list(obs.keys())})."
             )
         num_critics = 1 + obs[preference_group].shape[-1]
+        alg_cfg["amp_cfg"] = MultiCriticPPO._resolve_amp(alg_cfg.get("amp_cfg"), obs, env)
 
         actor: MLPModel = actor_class(obs, cfg["obs_groups"], "actor", env.num_actions, **actor_cfg).to(device)
         print(f"Actor Model: {actor}")

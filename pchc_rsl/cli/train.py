@@ -23,6 +23,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--actor", choices=sorted(ACTOR_CLASSES), help="actor variant (default: pci)")
     parser.add_argument("--fixed-preference", metavar="L1,L2",
                         help="hold lambda constant during training (baselines); required by --actor no-preference")
+    parser.add_argument("--motion-files", nargs="+", metavar="PATH",
+                        help="reference motions for the AMP style reward (files or folders: LAFAN1 G1 CSV, npz)")
     parser.add_argument("--log-dir", help="where checkpoints and TensorBoard events go (default: logs/TASK/DATE)")
     parser.add_argument("--resume", metavar="CKPT", help="checkpoint to continue from")
     return parser
@@ -44,6 +46,10 @@ def main(argv: list[str] | None = None) -> None:
         cfg.device = args.device
     if args.actor is not None:
         select_actor(cfg.runner.actor, args.actor)
+    if args.motion_files:
+        if cfg.runner.algorithm.amp_cfg is None:
+            raise SystemExit(f"pchc-train: task '{cfg.name}' has no AMP style reward; drop --motion-files.")
+        cfg.runner.algorithm.amp_cfg.motion_files = list(args.motion_files)
     if args.fixed_preference is not None:
         try:
             lam = validate_preference([float(x) for x in args.fixed_preference.split(",")], len(cfg.env.objective_names))

@@ -1,0 +1,77 @@
+"""AMPStyle: everything MultiCriticPPO needs for the AMP style reward, built from one config dict.
+
+Reference windows come from motion files; policy windows from the env's ``amp`` observation group (a window of
+the actuated joint positions, oldest frame first). The style reward c * max(0, 1 - (D - 1)^2 / 4) is added to the
+task group, the discriminator is trained after each PPO update on replayed policy windows with its own optimiser.
+"""
+
+from __future__ import annotations
+
+import torch
+
+from pchc_rsl.amp.discriminator import AMPDiscriminator, ReplayBuffer
+from pchc_rsl.amp.motion import MotionWindows, load_motions
+
+
+class AMPStyle:
+    def __init__(
+        self,
+        motion_files: list[str],
+        joint_names: list[str],
+        fps: float,
+        input_dim: int,
+        window: int = 5,
+        style_reward_scale: float = 0.02,
+        grad_penalty_coef: float = 5.0,
+        learning_rate: float = 1e-4,
+        hidden_dims: tuple[int, ...] | list[int] = (512, 256),
+        replay_capacity: int = 100_000,
+        num_updates: int = 4,
+        batch_size: int = 512,
+        obs_group: str = "amp",
+        device: str = "cpu",
+    ) -> None:
+        if input_dim != window * len(joint_names):
+            raise ValueError(
+                f"The '{obs_group}' observation has {input_dim} columns; AMP expects window {window} x "
+                f"{len(joint_names)} joints = {window * len(joint_names)}."
+            )
+        clips = load_motions(motion_files, joint_names, fps, min_frames=window)
+        self.reference = MotionWindows(clips, window, device)
+        self.discriminator = AMPDiscriminator(input_dim, hidden_dims, input_normalization=True).to(device)
+        self.optimizer = torch.optim.Adam(self.discriminator.parameters(), lr=learning_rate)
+        self.replay = ReplayBuffer(replay_capacity, input_dim, device)
+        self.scale, self.grad_penalty_coef = style_reward_scale, grad_penalty_coef
+        self.num_updates, self.batch_size = num_updates, batch_size
+        self.obs_group = obs_group
+        print(f"AMP: {len(clips)} clip(s), {self.reference.num_windows} reference windows, c = {style_reward_scale}")
+
+    def reward(self, obs) -> torch.Tensor:
+        """[N] style reward of the policy windows in ``obs``; the windows are kept for the discriminator."""
+        windows = obs[self.obs_group]
+        self.replay.insert(windows)
+        return self.discriminator.style_reward(windows, self.scale)
+
+    def update(self, reduce_gradients=None) -> dict[str, float]:
+        """Train D on reference vs replayed policy windows; ``reduce_gradients(params)`` averages across processes."""
+        stats: dict[str, float] = {}
+        for _ in range(self.num_updates):
+            reference = self.reference.sample(self.batch_size)
+            policy = self.replay.sample(self.batch_size)
+            loss, info = self.discriminator.loss(reference, policy, self.grad_penalty_coef)
+            self.optimizer.zero_grad()
+            loss.backward()
+            if reduce_gradients is not None:
+                reduce_gradients(self.discriminator.parameters())
+            self.optimizer.step()
+            self.discriminator.update_normalization(torch.cat([reference, policy]))
+            for key, value in info.items():
+                stats[key] = stats.get(key, 0.0) + value / self.num_updates
+        return stats
+
+    def state_dict(self) -> dict:
+        return {"discriminator": self.discriminator.state_dict(), "optimizer": self.optimizer.state_dict()}
+
+    def load_state_dict(self, state: dict) -> None:
+        self.discriminator.load_state_dict(state["discriminator"])
+        self.optimizer.load_state_dict(state["optimizer"])

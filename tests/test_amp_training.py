@@ -1,0 +1,65 @@
+import numpy as np
+import pytest
+import torch
+
+from test_g1_env import pytestmark  # noqa: F401  (skip without the G1 model)
+
+from pchc_rsl.configs import task_config
+from pchc_rsl.robots.g1.constants import WALK_JOINTS
+
+
+def write_clip(path, joints, frames=120, fps=30):
+    t = np.arange(frames) / fps
+    positions = 0.3 * np.sin(2 * np.pi * 1.0 * t[:, None] + np.arange(len(joints))[None, :])
+    np.savez(path, fps=fps, dof_names=np.array(joints), dof_positions=positions)
+
+
+def test_style_reward_joins_the_task_group_and_the_checkpoint(tmp_path, capsys):
+    from pchc_rsl.cli import train
+    from pchc_rsl.cli.common import make_runner
+
+    write_clip(tmp_path / "clip.npz", WALK_JOINTS)
+    cfg = task_config("g1-walk-fast")
+    cfg.num_envs = 4
+    cfg.runner.algorithm.amp_cfg.motion_files = [str(tmp_path)]
+    runner = make_runner(cfg)
+    alg, env = runner.alg, runner.env
+    assert alg.amp is not None and alg.amp.reference.num_windows > 0
+    obs = env.get_observations()
+    with torch.inference_mode():
+        alg.act(obs)
+        obs, rewards, dones, extras = env.step(alg.transition.actions)
+        expected_style = alg.amp.discriminator.style_reward(obs["amp"], alg.amp.scale)
+        alg.process_env_step(obs, rewards, dones, extras)
+    stored = alg.storage.rewards[0]
+    torch.testing.assert_close(stored[:, 0], extras["reward_groups"][:, 0] + expected_style)
+    torch.testing.assert_close(stored[:, 1:], extras["reward_groups"][:, 1:])
+    assert ((expected_style >= 0) & (expected_style <= alg.amp.scale)).all()
+
+    train.main(["--task", "g1-walk-fast", "--num-envs", "4", "--max-iterations", "1", "--log-dir",
+                str(tmp_path / "run"), "--motion-files", str(tmp_path / "clip.npz")])
+    checkpoint = torch.load(tmp_path / "run" / "model_0.pt", weights_only=True)
+    assert "discriminator" in checkpoint["amp_state_dict"]
+
+
+def test_training_without_motions_says_amp_is_off(tmp_path, capsys):
+    from pchc_rsl.cli import train
+
+    train.main(["--task", "g1-walk-fast", "--num-envs", "2", "--max-iterations", "1", "--log-dir", str(tmp_path)])
+    assert "AMP is off" in capsys.readouterr().out
+    assert "amp_state_dict" not in torch.load(tmp_path / "model_0.pt", weights_only=True)
+
+
+def test_real_clips_drive_the_walking_discriminator(tmp_path):
+    import os
+
+    motion_dir = os.environ.get("PCHC_MOTION_DIR")
+    if not motion_dir:
+        pytest.skip("PCHC_MOTION_DIR is not set")
+    from pchc_rsl.cli.common import make_runner
+
+    cfg = task_config("g1-walk-fast")
+    cfg.num_envs = 2
+    cfg.runner.algorithm.amp_cfg.motion_files = [os.path.join(motion_dir, "lafan1_walk1_subject1.csv")]
+    runner = make_runner(cfg)
+    assert runner.alg.amp.reference.sample(3).shape == (3, 5 * 20)
