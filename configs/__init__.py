@@ -14,6 +14,7 @@ from pchc_rsl.configs.base import (
 )
 from pchc_rsl.configs.g1_fall_recovery import g1_fall_recovery_fast_task, g1_fall_recovery_task
 from pchc_rsl.configs.g1_walk import g1_walk_fast_task, g1_walk_task
+from pchc_rsl.configs.mo_gym import mo_halfcheetah_task, mo_hopper_task
 from pchc_rsl.configs.toy import toy_task
 
 TASKS: dict[str, Callable[[], TaskConfig]] = {
@@ -22,6 +23,8 @@ TASKS: dict[str, Callable[[], TaskConfig]] = {
     "g1-walk-fast": g1_walk_fast_task,
     "g1-fall-recovery": g1_fall_recovery_task,
     "g1-fall-recovery-fast": g1_fall_recovery_fast_task,
+    "mo-hopper-2obj-v5": mo_hopper_task,
+    "mo-halfcheetah-v5": mo_halfcheetah_task,
 }
 
 

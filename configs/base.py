@@ -49,6 +49,8 @@ class AlgorithmConfig:
     entropy_coef: float = 0.005
     learning_rate: float = 1e-3
     max_grad_norm: float = 1.0
+    use_clipped_value_loss: bool = True
+    """rsl-rl's value clipping (by clip_param, in return units): slows critics whose returns are large."""
     schedule: str = "adaptive"
     desired_kl: float = 0.01
     reward_group_names: list[str] | None = None

@@ -1,0 +1,136 @@
+"""The MO-Gymnasium adapter and the benchmark tool, checked against the raw MO-Gymnasium env."""
+
+import importlib.util
+import json
+import os
+import sys
+
+import numpy as np
+import pytest
+import torch
+
+mo_gymnasium = pytest.importorskip("mo_gymnasium")
+
+from pchc_rsl.cli import train as train_cli  # noqa: E402
+from pchc_rsl.envs.mo_gym import MOGymEnvConfig, MOGymVecEnv, make_mo_env  # noqa: E402
+
+HOPPER = "mo-hopper-2obj-v5"
+
+
+def _hopper(num_envs=3, seed=5, **overrides):
+    cfg = MOGymEnvConfig(env_id=HOPPER, objective_names=["forward", "height"], **overrides)
+    return MOGymVecEnv(cfg, num_envs, "cpu", seed)
+
+
+def test_reward_groups_are_the_raw_vector_reward_of_an_identically_seeded_env():
+    env = _hopper(num_envs=2, seed=5, reward_scale=0.1)
+    reference = mo_gymnasium.make(HOPPER)
+    obs, _ = reference.reset(seed=6)  # env 1 of the adapter is seeded seed + 1
+    np.testing.assert_allclose(env.get_observations()["critic"][1].numpy(), obs, rtol=1e-6)
+    actions = torch.linspace(-1.5, 1.5, 2 * env.num_actions).reshape(2, env.num_actions)  # beyond the bounds
+    for _ in range(3):
+        _, reward, _, extras = env.step(actions)
+        obs, vector_reward, _, _, _ = reference.step(np.clip(actions[1].numpy(), -1.0, 1.0))
+        groups = extras["reward_groups"]
+        assert groups.shape == (2, 3)
+        assert torch.all(groups[:, 0] == 0)  # no task reward configured
+        np.testing.assert_allclose(groups[1, 1:].numpy(), 0.1 * vector_reward, rtol=1e-5)
+        expected = 0.1 * float(np.dot(env.preference[1].numpy(), vector_reward))
+        assert reward[1].item() == pytest.approx(expected, rel=1e-5)
+        np.testing.assert_allclose(env.get_observations()["critic"][1].numpy(), obs, rtol=1e-6)
+
+
+def test_time_limit_is_a_time_out_and_resets_immediately():
+    env = _hopper(num_envs=2, make_kwargs={"max_episode_steps": 4})
+    first = env.get_observations()["policy"].clone()
+    for step in range(4):
+        obs, _, dones, extras = env.step(torch.zeros(2, env.num_actions))
+    assert dones.all() and extras["time_outs"].all()
+    assert torch.all(env.episode_length_buf == 0)
+    assert "Episode_Objective/forward" in extras["log"]
+    # the returned observation is a fresh episode's: near the initial pose again, not the 4th step's state
+    assert torch.allclose(obs["policy"][:, :1], first[:, :1], atol=0.02)
+
+
+def test_falling_terminates_without_time_out():
+    env = _hopper(num_envs=1)
+    for _ in range(200):
+        _, _, dones, extras = env.step(torch.ones(1, env.num_actions))
+        if dones.any():
+            break
+    assert dones.all() and not extras["time_outs"].any()
+
+
+def test_history_frames_are_stacked_newest_first():
+    env = _hopper(num_envs=1, history_length=2)
+    obs_dim = env.get_observations()["critic"].shape[1]
+    frames = []
+    for _ in range(3):
+        obs, *_ = env.step(torch.zeros(1, env.num_actions))
+        frames.append(obs["critic"][0])
+    policy = obs["policy"][0].reshape(3, obs_dim)
+    for k in range(3):
+        assert torch.equal(policy[k], frames[2 - k])
+
+
+def test_set_preference_holds_across_resets_and_is_validated():
+    env = _hopper(num_envs=2, make_kwargs={"max_episode_steps": 2})
+    env.set_preference([0.3, 0.7])
+    for _ in range(5):
+        obs, *_ = env.step(torch.zeros(2, env.num_actions))
+    assert torch.allclose(obs["preference"], torch.tensor([[0.3, 0.7], [0.3, 0.7]]))
+    with pytest.raises(ValueError, match="one weight per objective"):
+        env.set_preference([0.2, 0.3, 0.5])
+    env.set_preference(None)
+    for _ in range(2):
+        obs, *_ = env.step(torch.zeros(2, env.num_actions))
+    assert not torch.allclose(obs["preference"], torch.tensor([[0.3, 0.7], [0.3, 0.7]]))
+
+
+def test_task_reward_weights_build_the_task_group():
+    env = _hopper(num_envs=1, task_reward_weights=[0.5, 0.0])
+    _, _, _, extras = env.step(torch.zeros(1, env.num_actions))
+    assert extras["reward_groups"][0, 0].item() == pytest.approx(0.5 * extras["reward_groups"][0, 1].item())
+
+
+def test_wrong_objective_names_and_missing_extra_fail_clearly(monkeypatch):
+    with pytest.raises(ValueError, match="2 objectives"):
+        MOGymVecEnv(MOGymEnvConfig(env_id=HOPPER, objective_names=["a", "b", "c"]), 1)
+    monkeypatch.setitem(sys.modules, "mo_gymnasium", None)
+    with pytest.raises(ImportError, match=r"pchc-rsl\[mo-gym\]"):
+        make_mo_env(HOPPER)
+
+
+def test_pchc_train_runs_on_an_mo_gym_task(tmp_path):
+    train_cli.main(["--task", HOPPER, "--num-envs", "2", "--max-iterations", "1", "--log-dir", str(tmp_path)])
+    checkpoint = torch.load(tmp_path / "model_0.pt", weights_only=True)
+    assert checkpoint["config"]["task"] == HOPPER
+
+
+def _load_benchmark():
+    path = os.path.join(os.path.dirname(__file__), "..", "tools", "mo_benchmark.py")
+    spec = importlib.util.spec_from_file_location("mo_benchmark", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _hypervolume_2d(points, ref):
+    """Independent 2-D hypervolume (maximisation): sweep the points by decreasing first objective."""
+    volume, best_y = 0.0, ref[1]
+    for x, y in sorted(points, key=lambda p: -p[0]):
+        if y > best_y and x > ref[0]:
+            volume += (x - ref[0]) * (y - best_y)
+            best_y = y
+    return volume
+
+
+def test_benchmark_tool_trains_evaluates_and_reports_the_front(tmp_path):
+    result = _load_benchmark().main(["--task", HOPPER, "--variant", "pci", "--steps", "2048", "--num-envs", "4",
+                                     "--preferences", "3", "--episodes", "2", "--out", str(tmp_path)])
+    saved = json.loads((tmp_path / "result.json").read_text())
+    assert (tmp_path / "pareto.png").is_file()
+    assert saved["env_steps"] == 2048 and len(saved["rows"]) == 3
+    points = [row["mean_return"] for row in saved["rows"]]
+    assert saved["hypervolume"] == pytest.approx(_hypervolume_2d(points, (-100.0, -100.0)), rel=1e-9)
+    assert result["num_points"] == len(saved["front"]) >= 1
