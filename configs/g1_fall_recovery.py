@@ -7,7 +7,8 @@ relative scale of the folded terms is set directly by their weights below.
 
 from __future__ import annotations
 
-from pchc_rsl.configs.base import AMPConfig, AlgorithmConfig, RunnerConfig, TaskConfig, default_actor, default_critic
+from pchc_rsl.configs.base import TaskConfig
+from pchc_rsl.configs.g1_training import g1_task_config
 from pchc_rsl.envs.g1_env import RewardTerm
 from pchc_rsl.envs.g1_fall_recovery import FallRecoveryConfig
 from pchc_rsl.robots.g1.constants import FALL_RECOVERY_JOINTS
@@ -44,26 +45,7 @@ def fall_recovery_env(fast: bool = False) -> FallRecoveryConfig:
 
 def g1_fall_recovery_task(fast: bool = False) -> TaskConfig:
     env = fall_recovery_env(fast)
-    actor = default_actor()
-    actor.kwargs = {"history_length": env.history_length}
-    return TaskConfig(
-        name="g1-fall-recovery-fast" if fast else "g1-fall-recovery",
-        env_class="pchc_rsl.envs.g1_fall_recovery:G1FallRecoveryEnv",
-        env=env,
-        num_envs=64,
-        runner=RunnerConfig(
-            experiment_name="g1_fall_recovery",
-            num_steps_per_env=24,
-            max_iterations=3000,
-            save_interval=50,
-            algorithm=AlgorithmConfig(
-                reward_group_names=["task", *env.objective_names],
-                amp_cfg=AMPConfig(joint_names=list(env.joints), window=env.amp_window),
-            ),
-            actor=actor,
-            critic=default_critic(),
-        ),
-    )
+    return g1_task_config("g1-fall-recovery-fast" if fast else "g1-fall-recovery", "pchc_rsl.envs.g1_fall_recovery:G1FallRecoveryEnv", env, "g1_fall_recovery")
 
 
 def g1_fall_recovery_fast_task() -> TaskConfig:

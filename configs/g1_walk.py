@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from pchc_rsl.configs.base import AMPConfig, AlgorithmConfig, RunnerConfig, TaskConfig, default_actor, default_critic
+from pchc_rsl.configs.base import TaskConfig
+from pchc_rsl.configs.g1_training import g1_task_config
 from pchc_rsl.envs.g1_env import G1EnvConfig, RewardTerm
 from pchc_rsl.robots.g1.constants import WALK_JOINTS
 
@@ -44,26 +45,7 @@ def walk_env(fast: bool = False) -> G1EnvConfig:
 
 def g1_walk_task(fast: bool = False) -> TaskConfig:
     env = walk_env(fast)
-    actor = default_actor()
-    actor.kwargs = {"history_length": env.history_length}
-    return TaskConfig(
-        name="g1-walk-fast" if fast else "g1-walk",
-        env_class="pchc_rsl.envs.g1_env:G1Env",
-        env=env,
-        num_envs=64,
-        runner=RunnerConfig(
-            experiment_name="g1_walk",
-            num_steps_per_env=24,
-            max_iterations=3000,
-            save_interval=50,
-            algorithm=AlgorithmConfig(
-                reward_group_names=["task", *env.objective_names],
-                amp_cfg=AMPConfig(joint_names=list(env.joints), window=env.amp_window),
-            ),
-            actor=actor,
-            critic=default_critic(),
-        ),
-    )
+    return g1_task_config("g1-walk-fast" if fast else "g1-walk", "pchc_rsl.envs.g1_env:G1Env", env, "g1_walk")
 
 
 def g1_walk_fast_task() -> TaskConfig:

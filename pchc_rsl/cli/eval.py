@@ -7,7 +7,6 @@ import json
 import os
 
 import numpy as np
-import torch
 
 from pchc_rsl.evaluation import (
     TASK_EVALUATION,

@@ -1,0 +1,29 @@
+"""The PPO setup both G1 tasks share: CPU-sized defaults (64 envs), 24-step rollouts, the AMP style reward."""
+
+from __future__ import annotations
+
+from pchc_rsl.configs.base import AMPConfig, AlgorithmConfig, RunnerConfig, TaskConfig, default_actor, default_critic
+
+
+def g1_task_config(name: str, env_class: str, env, experiment_name: str) -> TaskConfig:
+    """A TaskConfig for a G1 env config: PCI actor over its history frames, AMP over its actuated joints."""
+    actor = default_actor()
+    actor.kwargs = {"history_length": env.history_length}
+    return TaskConfig(
+        name=name,
+        env_class=env_class,
+        env=env,
+        num_envs=64,
+        runner=RunnerConfig(
+            experiment_name=experiment_name,
+            num_steps_per_env=24,
+            max_iterations=3000,
+            save_interval=50,
+            algorithm=AlgorithmConfig(
+                reward_group_names=["task", *env.objective_names],
+                amp_cfg=AMPConfig(joint_names=list(env.joints), window=env.amp_window),
+            ),
+            actor=actor,
+            critic=default_critic(),
+        ),
+    )
