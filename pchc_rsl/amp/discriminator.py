@@ -50,6 +50,9 @@ class AMPDiscriminator(nn.Module):
 
             L = mean (D(ref) - 1)^2 + mean (D(policy) + 1)^2 + (alpha_d / 2) mean ||grad_x D(x)|_{x = ref}||^2
 
+        The PCHC paper prints the penalty as ||grad_phi D||_2 (unsquared, w.r.t. phi); we follow the AMP paper it
+        builds on: the squared norm of the gradient w.r.t. the input, the zero-centred R1 penalty that keeps the
+        discriminator smooth around the reference data.
         x is the normalised input (the raw input without input_normalization). reference [B_r, input_dim],
         policy [B_p, input_dim]. Returns (L, logging dict of floats).
         """
