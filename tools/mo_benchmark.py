@@ -91,6 +91,9 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--steps", type=int, default=1_000_000, help="env steps to train for")
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--num-envs", type=int, help="parallel envs in training (default: the task's)")
+    parser.add_argument("--preference-concentration", type=float,
+                        help="Dirichlet concentration of the training preferences (default: the task's, 1 = uniform; "
+                             "below 1 puts more episodes near the simplex vertices)")
     parser.add_argument("--preferences", type=int, default=11)
     parser.add_argument("--episodes", type=int, default=5, help="evaluation episodes per preference")
     parser.add_argument("--eval-seed", type=int, default=10_000)
@@ -103,6 +106,8 @@ def main(argv: list[str] | None = None) -> dict:
     cfg.seed = args.seed
     if args.num_envs is not None:
         cfg.num_envs = args.num_envs
+    if args.preference_concentration is not None:
+        cfg.env.preference_concentration = args.preference_concentration
     select_actor(cfg.runner.actor, args.variant)
     out = args.out or os.path.join("logs", "mo_benchmark", args.task, f"{args.variant}_seed{args.seed}")
     os.makedirs(out, exist_ok=True)
