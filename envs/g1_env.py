@@ -20,7 +20,7 @@ from rsl_rl.env import VecEnv
 from rsl_rl.utils import resolve_callable
 
 from pchc_rsl.envs.physics import BatchedMuJoCo
-from pchc_rsl.preference import sample_preferences, validate_preference
+from pchc_rsl.preference import EnvPreferences
 from pchc_rsl.robots.g1.constants import STANDING_HEIGHT
 from pchc_rsl.robots.g1.model import build_g1_model, default_joint_positions
 
@@ -155,8 +155,8 @@ class G1Env(VecEnv):
         self.last_actions = torch.zeros(n, j)
         self.episode_length_buf = torch.zeros(n, dtype=torch.long)
         self.commands = torch.zeros(n, 3)
-        self.preference = torch.zeros(n, self.num_objectives)
-        self.fixed_preference: torch.Tensor | None = None
+        self.preferences = EnvPreferences(n, self.num_objectives, cfg.preference_concentration, self.generator)
+        self.preference = self.preferences.values
         self.action_scale = torch.full((n, 1), cfg.action_scale)
         frame_dim = 3 + 3 + 3 * j + 1 + (3 if cfg.use_command else 0)
         self.frames = torch.zeros(n, cfg.history_length + 1, frame_dim)
@@ -239,22 +239,7 @@ class G1Env(VecEnv):
     # ---------------------------------------------------------------- preference
     def set_preference(self, lam) -> None:
         """Hold lambda ([m] for all envs or [N, m]) from now on, across resets; ``None`` resumes sampling."""
-        if lam is None:
-            self.fixed_preference = None
-            return
-        lam = validate_preference(lam, self.num_objectives)
-        self.fixed_preference = lam.expand(self.num_envs, -1).clone()
-        self.preference[:] = self.fixed_preference
-
-    def _sample_preference(self, env_ids: torch.Tensor) -> None:
-        if len(env_ids) == 0:
-            return
-        if self.fixed_preference is not None:
-            self.preference[env_ids] = self.fixed_preference[env_ids]
-        else:
-            self.preference[env_ids] = sample_preferences(
-                len(env_ids), self.num_objectives, self.cfg.preference_concentration, self.generator
-            )
+        self.preferences.hold(lam)
 
     # ---------------------------------------------------------------- reset
     def _uniform(self, n: int, low: float, high: float) -> torch.Tensor:
@@ -273,7 +258,7 @@ class G1Env(VecEnv):
         self.commands[env_ids] = torch.stack(
             [self._uniform(n, *r["lin_vel_x"]), self._uniform(n, *r["lin_vel_y"]), self._uniform(n, *r["ang_vel_z"])], 1
         )
-        self._sample_preference(env_ids)
+        self.preferences.resample(env_ids)
         self.actions[env_ids] = 0.0
         self.last_actions[env_ids] = 0.0
         self.episode_length_buf[env_ids] = 0
@@ -415,9 +400,9 @@ class G1Env(VecEnv):
         finished = {"env_ids": done_ids, "fell": terminated[done_ids], **self.episode_metrics(done_ids)}
         log = self._episode_log(done_ids, finished)
         self._reset(done_ids)
-        if self.cfg.preference_resample_prob > 0 and self.fixed_preference is None:
+        if self.cfg.preference_resample_prob > 0 and self.preferences.held is None:
             resample = torch.rand(self.num_envs, generator=self.generator) < self.cfg.preference_resample_prob
-            self._sample_preference(resample.nonzero(as_tuple=False).squeeze(-1))
+            self.preferences.resample(resample.nonzero(as_tuple=False).squeeze(-1))
         self.frames[:, 1:] = self.frames[:, :-1].clone()
         self.frames[:, 0] = self._frame(noise=True)
         self.amp_frames[:, :-1] = self.amp_frames[:, 1:].clone()

@@ -19,7 +19,7 @@ from tensordict import TensorDict
 
 from rsl_rl.env import VecEnv
 
-from pchc_rsl.preference import sample_preferences, validate_preference
+from pchc_rsl.preference import EnvPreferences
 
 
 @dataclass
@@ -82,31 +82,22 @@ class MOGymVecEnv(VecEnv):
         self.frames = torch.zeros(num_envs, cfg.history_length + 1, obs_dim)  # newest first
         self.episode_length_buf = torch.zeros(num_envs, dtype=torch.long)
         self.episode_sums = torch.zeros(num_envs, 1 + reward_dim)
-        self.preference = torch.zeros(num_envs, reward_dim)
-        self.fixed_preference: torch.Tensor | None = None
+        self.preferences = EnvPreferences(num_envs, reward_dim, cfg.preference_concentration, self.generator)
+        self.preference = self.preferences.values
         for i, env in enumerate(self.envs):
             env.action_space.seed(seed + i)
             self._reset_env(i, seed=seed + i)
 
     def set_preference(self, lam) -> None:
         """Hold lambda ([m] for all envs, or [N, m]) from now on, also across resets; ``None`` resumes sampling."""
-        if lam is None:
-            self.fixed_preference = None
-            return
-        lam = validate_preference(lam, self.num_objectives).cpu()
-        self.fixed_preference = lam.expand(self.num_envs, -1).clone()
-        self.preference[:] = self.fixed_preference
+        self.preferences.hold(lam)
 
     def _reset_env(self, i: int, seed: int | None = None) -> None:
         obs, _ = self.envs[i].reset(seed=seed)
         self.frames[i] = torch.as_tensor(obs, dtype=torch.float32)  # history starts as copies of the first frame
         self.episode_length_buf[i] = 0
         self.episode_sums[i] = 0.0
-        if self.fixed_preference is not None:
-            self.preference[i] = self.fixed_preference[i]
-        else:
-            self.preference[i] = sample_preferences(1, self.num_objectives, self.cfg.preference_concentration,
-                                                    self.generator)[0]
+        self.preferences.resample([i])
 
     def get_observations(self) -> TensorDict:
         return TensorDict(

@@ -14,7 +14,7 @@ from tensordict import TensorDict
 
 from rsl_rl.env import VecEnv
 
-from pchc_rsl.preference import sample_preferences, validate_preference
+from pchc_rsl.preference import EnvPreferences
 
 
 @dataclass
@@ -48,18 +48,14 @@ class ToyEnv(VecEnv):
         self.frames = torch.zeros(num_envs, cfg.history_length + 1, 4, device=device)  # newest first
         self.episode_length_buf = torch.zeros(num_envs, dtype=torch.long, device=device)
         self.episode_sums = torch.zeros(num_envs, 1 + self.num_objectives, device=device)
-        self.preference = torch.zeros(num_envs, self.num_objectives, device=device)
-        self.fixed_preference: torch.Tensor | None = None
+        self.preferences = EnvPreferences(num_envs, self.num_objectives, cfg.preference_concentration, self.generator,
+                                          device)
+        self.preference = self.preferences.values
         self._reset(torch.arange(num_envs, device=device))
 
     def set_preference(self, lam) -> None:
         """Hold lambda ([m] for all envs, or [N, m]) from now on, also across resets; ``None`` resumes sampling."""
-        if lam is None:
-            self.fixed_preference = None
-            return
-        lam = validate_preference(lam, self.num_objectives).to(self.device)
-        self.fixed_preference = lam.expand(self.num_envs, -1).clone()
-        self.preference[:] = self.fixed_preference
+        self.preferences.hold(lam)
 
     def _reset(self, env_ids: torch.Tensor) -> None:
         n = len(env_ids)
@@ -70,12 +66,7 @@ class ToyEnv(VecEnv):
         self.frames[env_ids, :, :2] = self.pos[env_ids].unsqueeze(1)
         self.episode_length_buf[env_ids] = 0
         self.episode_sums[env_ids] = 0.0
-        if self.fixed_preference is not None:
-            self.preference[env_ids] = self.fixed_preference[env_ids]
-        else:
-            self.preference[env_ids] = sample_preferences(
-                n, self.num_objectives, self.cfg.preference_concentration, self.generator
-            ).to(self.device)
+        self.preferences.resample(env_ids)
 
     def get_observations(self) -> TensorDict:
         time_left = 1.0 - self.episode_length_buf.float().unsqueeze(1) / self.max_episode_length

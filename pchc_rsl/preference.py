@@ -61,6 +61,40 @@ def validate_preference(lam: torch.Tensor | Sequence[float], num_objectives: int
     return t
 
 
+class EnvPreferences:
+    """The per-env preferences of a vectorised env: Dirichlet samples at each reset unless held by ``hold``.
+
+    ``values`` ([N, m]) is updated in place, so an env may keep it as its ``preference`` attribute.
+    """
+
+    def __init__(self, num_envs: int, num_objectives: int, concentration: float, generator: torch.Generator,
+                 device: torch.device | str = "cpu") -> None:
+        self.num_envs, self.num_objectives = num_envs, num_objectives
+        self.concentration, self.generator = concentration, generator
+        self.values = torch.zeros(num_envs, num_objectives, device=device)
+        self.held: torch.Tensor | None = None
+
+    def hold(self, lam) -> None:
+        """Hold lambda ([m] for all envs, or [N, m]) from now on, also across resets; ``None`` resumes sampling."""
+        if lam is None:
+            self.held = None
+            return
+        lam = validate_preference(lam, self.num_objectives).to(self.values.device)
+        self.held = lam.expand(self.num_envs, -1).clone()
+        self.values[:] = self.held
+
+    def resample(self, env_ids: torch.Tensor | list[int]) -> None:
+        """New preferences for these envs: the held ones, or fresh Dirichlet samples."""
+        if len(env_ids) == 0:
+            return
+        if self.held is not None:
+            self.values[env_ids] = self.held[env_ids]
+        else:
+            self.values[env_ids] = sample_preferences(
+                len(env_ids), self.num_objectives, self.concentration, self.generator
+            ).to(self.values.device)
+
+
 def simplex_lattice(num_objectives: int, resolution: int) -> torch.Tensor:
     """All points of the simplex whose coordinates are multiples of 1/resolution. Returns [E, m].
 
