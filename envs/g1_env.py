@@ -110,6 +110,7 @@ def yaw_of(q: torch.Tensor) -> torch.Tensor:
     return torch.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
 
 
+GRAVITY_DIRECTION = torch.tensor([0.0, 0.0, -1.0])
 NOISE_SCALES = {"ang_vel": 0.2, "gravity": 0.05, "joint_pos": 0.01, "joint_vel": 1.5}
 
 
@@ -135,6 +136,7 @@ class G1Env(VecEnv):
         self.physics = BatchedMuJoCo(self._randomized_models(model), num_envs, cfg.decimation, cfg.num_threads,
                                      with_body_forces=self.uses_body_forces)
         self.model = model
+        self._sensor_index = self._sensor_indices()
         self.default_joint_pos = torch.tensor(default_joint_positions(cfg.joints))
         qpos_adr = [model.jnt_qposadr[model.joint(j).id] for j in cfg.joints]
         dof_adr = [model.jnt_dofadr[model.joint(j).id] for j in cfg.joints]
@@ -203,6 +205,21 @@ class G1Env(VecEnv):
         return models
 
     # ---------------------------------------------------------------- state
+    def _sensor_indices(self) -> dict[str, torch.Tensor]:
+        """Columns of the sensor readings the env reads every step, looked up once by sensor name."""
+        p, feet = self.physics, ("left_foot", "right_foot")
+
+        def columns(name: str) -> list[int]:
+            cols = p.sensor_columns(name)
+            return list(range(cols.start, cols.stop))
+
+        return {
+            "foot_pos": torch.tensor([columns(f"{s}_pos") for s in feet]),  # [2, 3]
+            "foot_vel": torch.tensor([columns(f"{s}_linvel") for s in feet]),  # [2, 3]
+            "foot_touch": torch.tensor([columns(f"{s}_touch")[0] for s in feet]),  # [2]
+            "torque": torch.tensor([columns(f"{j}_torque")[0] for j in self.cfg.joints]),  # [J]
+        }
+
     def _read_state(self) -> None:
         """Pull the latest physics state into torch views (zero-copy where possible)."""
         p = self.physics
@@ -212,16 +229,15 @@ class G1Env(VecEnv):
         self.base_lin_vel_w = qvel[:, :3]
         self.base_ang_vel = qvel[:, 3:6]  # free joint: angular velocity in the body frame
         self.base_lin_vel = quat_rotate_inverse(self.base_quat, self.base_lin_vel_w)
-        self.projected_gravity = quat_rotate_inverse(self.base_quat, torch.tensor([0.0, 0.0, -1.0]).expand(self.num_envs, 3))
+        self.projected_gravity = quat_rotate_inverse(self.base_quat, GRAVITY_DIRECTION.expand(self.num_envs, 3))
         self.joint_pos = qpos[:, self.joint_qpos_idx]
         self.joint_vel = qvel[:, self.joint_dof_idx]
         sensors = torch.from_numpy(p.substep_sensors).float()  # [N, K, S]
-        self.foot_pos = torch.stack([sensors[:, -1, p.sensor_columns(f"{s}_pos")] for s in ("left_foot", "right_foot")], 1)
-        self.foot_vel = torch.stack([sensors[:, -1, p.sensor_columns(f"{s}_linvel")] for s in ("left_foot", "right_foot")], 1)
-        touch = torch.stack([sensors[:, :, p.sensor_columns(f"{s}_touch")].squeeze(-1) for s in ("left_foot", "right_foot")], -1)
-        self.foot_touch_substeps = touch  # [N, K, 2]
-        torque_cols = [p.sensor_columns(f"{j}_torque").start for j in self.cfg.joints]
-        self.torques_substeps = sensors[:, :, torque_cols]  # [N, K, J]
+        index = self._sensor_index
+        self.foot_pos = sensors[:, -1, index["foot_pos"]]  # [N, 2, 3]
+        self.foot_vel = sensors[:, -1, index["foot_vel"]]
+        self.foot_touch_substeps = sensors[:, :, index["foot_touch"]]  # [N, K, 2]
+        self.torques_substeps = sensors[:, :, index["torque"]]  # [N, K, J]
         self.joint_vel_substeps = torch.from_numpy(p.substep_states[:, :, p.qvel_slice]).float()[:, :, self.joint_dof_idx]
         self.torques = self.torques_substeps[:, -1]
 
