@@ -109,12 +109,12 @@ class MultiCriticPPO(PPO):
         st.advantages = self.task_advantage_weight * normalised[..., :1] + (lam * normalised[..., 1:]).sum(
             dim=-1, keepdim=True
         )
-        self._record_return_stats(mean, std)
+        self._record_return_stats(flat, std)
 
-    def _record_return_stats(self, adv_mean: torch.Tensor, adv_std: torch.Tensor) -> None:
-        """Per-critic value error of the rollout's critic and raw advantage spread, logged with the losses."""
-        st = self.storage
-        value_error = (st.returns - st.values).pow(2).flatten(0, 1).mean(dim=0)
+    def _record_return_stats(self, advantages: torch.Tensor, adv_std: torch.Tensor) -> None:
+        """Per-critic value error of the rollout's critic (mean squared raw advantage, returns - values) and raw
+        advantage spread, logged with the losses. advantages: [T * N, K]."""
+        value_error = advantages.pow(2).mean(dim=0)
         self.return_stats = {}
         for k, name in enumerate(self.reward_group_names):
             self.return_stats[f"value_error/{name}"] = value_error[k].item()
