@@ -19,14 +19,17 @@ def make_obs(n=N, m=2, seed=0):
     )
 
 
-def test_pci_actor_mixes_its_experts_with_the_beta_routing_weights():
+@pytest.mark.parametrize("experts_see_preference", [True, False])
+def test_pci_actor_mixes_its_experts_with_the_beta_routing_weights(experts_see_preference):
     obs = make_obs()
     actor = PCIActor(obs, GROUPS, "actor", 3, hidden_dims=[16], history_length=HISTORY, history_latent_dim=5,
-                     distribution_cfg=GAUSSIAN, routing_scale=7.0)
+                     distribution_cfg=GAUSSIAN, routing_scale=7.0, experts_see_preference=experts_see_preference)
     head = actor.mlp
     x = obs["policy"]
     latent = head.encoder(x[:, FRAME:])
-    features = torch.cat([x[:, :FRAME], latent], dim=-1)
+    # the paper: each expert sees the current observation, lambda and the history latent
+    seen = [x[:, :FRAME], obs["preference"]] if experts_see_preference else [x[:, :FRAME]]
+    features = torch.cat([*seen, latent], dim=-1)
     # each expert by hand: one hidden ELU layer
     outputs = []
     for j in range(5):

@@ -142,16 +142,20 @@ class BatchedExperts(nn.Module):
 
 
 class HistoryExpertsHead(nn.Module):
-    """Shared body of the mixture heads: encode the history frames, run the experts on [current, latent].
+    """Shared body of the mixture heads: encode the history frames, run the experts on [current, lambda, latent].
 
     The history group is laid out newest first, [s_t, s_{t-1}, ..., s_{t-H}], each frame of equal width; it sits at
     columns [start, stop) of the normalised observation. Everything outside the past frames (the current frame and
-    any other group) is the experts' "current observation".
+    any other group) is the experts' "current observation". The paper concatenates lambda with the observation, so
+    by default every expert sees it and can act differently between expert positions; with
+    ``experts_see_preference=False`` the experts are preference-blind and lambda acts only through the routing.
     """
 
     def __init__(self, obs_dim: int, history: tuple[int, int, int], output_dim: int, num_experts: int,
-                 expert_hidden_dims, encoder_hidden_dims, latent_dim: int, activation: str) -> None:
+                 expert_hidden_dims, encoder_hidden_dims, latent_dim: int, activation: str, preference_dim: int,
+                 experts_see_preference: bool = True) -> None:
         super().__init__()
+        self.experts_see_preference = experts_see_preference
         start, stop, history_length = history
         frame_dim = (stop - start) // (history_length + 1)
         self.obs_dim = obs_dim
@@ -159,12 +163,15 @@ class HistoryExpertsHead(nn.Module):
         past_dim = self.past_stop - self.past_start
         self.encoder = MLP(past_dim, latent_dim, encoder_hidden_dims, activation) if past_dim > 0 else None
         current_dim = obs_dim - past_dim + (latent_dim if past_dim > 0 else 0)
+        current_dim += preference_dim if experts_see_preference else 0
         self.features_dim = current_dim
         self.experts = BatchedExperts(num_experts, current_dim, output_dim, expert_hidden_dims, activation)
 
     def features(self, x: torch.Tensor) -> torch.Tensor:
-        """[N, obs_dim + m] -> [N, features]: current observation and history latent (lambda excluded)."""
+        """[N, obs_dim + m] -> [N, features]: current observation, lambda (unless blind) and history latent."""
         parts = [x[:, : self.past_start], x[:, self.past_stop : self.obs_dim]]
+        if self.experts_see_preference:
+            parts.append(x[:, self.obs_dim :])
         if self.encoder is not None:
             parts.append(self.encoder(x[:, self.past_start : self.past_stop]))
         return torch.cat(parts, dim=-1)
@@ -191,15 +198,16 @@ class PCIHead(HistoryExpertsHead):
 class GatedHead(HistoryExpertsHead):
     """Experts routed by a learned softmax gate over [features, lambda] (the paper's "w/o PCI" ablation)."""
 
-    def __init__(self, preference_dim: int, gate_hidden_dims, **kwargs) -> None:
+    def __init__(self, gate_hidden_dims, **kwargs) -> None:
         super().__init__(**kwargs)
         num_experts = self.experts.weights[0].shape[0]
-        self.gate = MLP(self.features_dim + preference_dim, num_experts, gate_hidden_dims, kwargs["activation"])
+        gate_dim = self.features_dim + (0 if self.experts_see_preference else kwargs["preference_dim"])
+        self.gate = MLP(gate_dim, num_experts, gate_hidden_dims, kwargs["activation"])
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         features = self.features(x)
-        weights = torch.softmax(self.gate(torch.cat([features, x[:, self.obs_dim :]], dim=-1)), dim=-1)
-        return self.mix(features, weights)
+        gate_input = features if self.experts_see_preference else torch.cat([features, x[:, self.obs_dim :]], dim=-1)
+        return self.mix(features, torch.softmax(self.gate(gate_input), dim=-1))
 
 
 class _MixtureActor(PreferenceMLPModel):
@@ -220,6 +228,7 @@ class _MixtureActor(PreferenceMLPModel):
         history_length: int = 5,
         encoder_hidden_dims: tuple[int, ...] | list[int] = (128,),
         history_latent_dim: int = 32,
+        experts_see_preference: bool = True,
     ) -> None:
         # The base builds a throwaway MLP of hidden_dims; keep it tiny, the experts get hidden_dims below.
         super().__init__(obs, obs_groups, obs_set, output_dim, [1], activation, obs_normalization,
@@ -232,6 +241,8 @@ class _MixtureActor(PreferenceMLPModel):
             encoder_hidden_dims=list(encoder_hidden_dims),
             latent_dim=history_latent_dim,
             activation=activation,
+            preference_dim=self.preference_dim,
+            experts_see_preference=experts_see_preference,
         )
 
     def _locate_history(self, obs: TensorDict, group: str, history_length: int) -> tuple[int, int, int]:
@@ -255,8 +266,9 @@ class _MixtureActor(PreferenceMLPModel):
 class PCIActor(_MixtureActor):
     """The PCI actor: N_B experts at fixed simplex positions, mixed by the preference-parameterised density.
 
-    hidden_dims are each expert's hidden layers. ``num_experts`` experts sit on the simplex lattice of resolution
-    num_experts - 1 for two objectives (0, .25, .5, .75, 1 by default); for m objectives the default lattice of
+    hidden_dims are each expert's hidden layers; each expert gets [current observation, lambda, history latent] (the
+    paper's design; ``experts_see_preference=False`` for preference-blind experts). ``num_experts`` experts sit on
+    the simplex lattice of resolution num_experts - 1 for two objectives (0, .25, .5, .75, 1 by default); for m objectives the default lattice of
     resolution ``lattice_resolution`` is used, or pass ``expert_positions`` ([E] for m = 2, else [E, m]).
     """
 
@@ -299,4 +311,4 @@ class GatedMoEActor(_MixtureActor):
         **kwargs,
     ) -> None:
         super().__init__(obs, obs_groups, obs_set, output_dim, **kwargs)
-        self.mlp = GatedHead(self.preference_dim, list(gate_hidden_dims), num_experts=num_experts, **self.head_kwargs)
+        self.mlp = GatedHead(list(gate_hidden_dims), num_experts=num_experts, **self.head_kwargs)
