@@ -36,6 +36,7 @@ def reference_gae(rewards, values, dones, last_values, gamma, lam):
 
 
 def test_per_critic_gae_and_combined_advantage_match_a_reference_loop(alg):
+    alg.value_normalizer = None  # raw values here; value normalisation has its own test below
     gen = torch.Generator().manual_seed(0)
     st = alg.storage
     T, N, K = st.rewards.shape
@@ -60,6 +61,7 @@ def test_per_critic_gae_and_combined_advantage_match_a_reference_loop(alg):
 
 
 def advantages_with_objective_2_rewards(alg, scale, preference):
+    alg.value_normalizer = None  # the running statistics would carry over from one call to the next
     gen = torch.Generator().manual_seed(1)
     T, N, _ = alg.storage.rewards.shape
     fill_storage(alg, gen, preference.expand(T, N, 2))
@@ -108,3 +110,74 @@ def test_reward_groups_are_required_with_the_right_width(alg):
 def test_per_mini_batch_normalisation_is_refused(alg):
     with pytest.raises(ValueError, match="normalize_advantage_per_mini_batch"):
         MultiCriticPPO(alg.actor, alg.critic, alg.storage, normalize_advantage_per_mini_batch=True)
+
+
+def test_value_normalisation_predicts_returns_in_running_units_and_is_scale_free(alg):
+    gen = torch.Generator().manual_seed(3)
+    st = alg.storage
+    T, N, K = st.rewards.shape
+    fill_storage(alg, gen, torch.tensor([0.5, 0.5]).expand(T, N, 2))
+    st.rewards[..., 2] *= 1000.0  # a group on a much larger scale
+    st.values[..., 2] *= 1000.0
+    raw_values = st.values.clone()
+    obs = st.observations[-1]
+    # fresh statistics: mean 0, std 1, eps 0.01, so the raw last value is 1.01 times the critic output
+    last_values = 1.01 * alg.critic(obs).detach()
+    alg.compute_returns(obs)
+    returns = torch.zeros(T, N, K)
+    for n in range(N):
+        for k in range(K):
+            returns[:, n, k] = torch.tensor(reference_gae(
+                st.rewards[:, n, k].tolist(), raw_values[:, n, k].tolist(), st.dones[:, n, 0].float().tolist(),
+                last_values[n, k].item(), alg.gamma, alg.lam,
+            )) + raw_values[:, n, k]
+    flat = returns.flatten(0, 1)
+    mean, std = flat.mean(0), flat.std(0, unbiased=False)
+    torch.testing.assert_close(st.returns, (returns - mean) / (std + 0.01), atol=1e-4, rtol=1e-4)
+    torch.testing.assert_close(st.values, (raw_values - mean) / (std + 0.01), atol=1e-4, rtol=1e-4)
+    # the value targets of the 1000x group are on the same unit scale as the others
+    assert 0.5 < st.returns[..., 2].std() < 2.0
+
+
+def test_a_silent_reward_group_contributes_nothing(alg):
+    """A zero task group (or a constant one with only time-outs) has no advantage; a constant with falls does."""
+    N = alg.storage.num_envs
+    T = alg.storage.num_transitions_per_env
+    gen = torch.Generator().manual_seed(5)
+    lam = torch.tensor([0.3, 0.7])
+
+    def rollout(task_reward, terminate):
+        obs = alg.storage.observations[0].clone()
+        obs["preference"][:] = lam
+        alg.storage.clear()
+        for t in range(T):
+            alg.act(obs)
+            objectives = torch.randn(N, 2, generator=gen)
+            groups = torch.cat([torch.full((N, 1), task_reward), objectives], dim=-1)
+            dones = torch.zeros(N, dtype=torch.bool)
+            dones[t % N] = terminate
+            time_outs = torch.zeros(N, dtype=torch.bool)
+            alg.process_env_step(obs, groups.sum(-1), dones, {"reward_groups": groups, "time_outs": time_outs})
+        alg.compute_returns(obs)
+        return alg.silent_groups_last
+
+    assert rollout(0.0, terminate=True).tolist() == [True, False, False]
+    assert rollout(1.0, terminate=False).tolist() == [True, False, False]
+    assert rollout(1.0, terminate=True).tolist() == [False, False, False]
+
+
+def test_silent_task_group_leaves_the_lambda_weighted_objective_advantages(alg):
+    alg.value_normalizer = None
+    gen = torch.Generator().manual_seed(7)
+    st = alg.storage
+    T, N, K = st.rewards.shape
+    lam = torch.tensor([0.3, 0.7])
+    fill_storage(alg, gen, lam.expand(T, N, 2))
+    alg.group_min = torch.tensor([0.0, -1.0, -1.0])  # as if the task reward had been 0 at every step
+    alg.group_max = torch.tensor([0.0, 1.0, 1.0])
+    obs = st.observations[-1]
+    alg.compute_returns(obs)
+    advantages = st.returns - st.values
+    normalised = (advantages - advantages.mean(dim=(0, 1))) / (advantages.std(dim=(0, 1)) + 1e-8)
+    expected = 0.3 * normalised[..., 1] + 0.7 * normalised[..., 2]
+    torch.testing.assert_close(st.advantages.squeeze(-1), expected, atol=1e-5, rtol=1e-5)

@@ -9,6 +9,7 @@ from rsl_rl.algorithms import PPO
 from rsl_rl.env import VecEnv
 from rsl_rl.extensions import resolve_rnd_config, resolve_symmetry_config
 from rsl_rl.models import MLPModel
+from rsl_rl.modules import EmpiricalNormalization
 from rsl_rl.utils import reduce_gradients_in_buckets, resolve_class, resolve_obs_groups
 
 from pchc_rsl.amp.style import AMPStyle
@@ -23,8 +24,15 @@ class MultiCriticPPO(PPO):
         A = w_task A_task + sum_i lambda_i A_obj_i,
     with lambda read from the stored preference observation of each transition and w_task = 1 in the paper.
     Normalisation erases each group's reward scale, so w_task (as HoST's per-critic coefficients) is the only way to
-    say how much the task matters against the objectives; lower it when the task group is small or nearly constant,
-    whose normalised advantage is then mostly value-estimation noise.
+    say how much the task matters against the objectives.
+
+    Two safeguards make it work on environments written without it in mind:
+    - A silent group contributes nothing: a group whose reward was the same constant at every step of the rollout
+      carries no information about the actions (zero, or constant with only time-outs ending episodes), and
+      normalising its advantage would blow value-estimation noise up to unit scale. Its advantage is set to 0.
+    - Value normalisation (``value_normalization=True``): each value head predicts its return in units of a running
+      mean and std of that critic's returns, so value clipping (``clip_param``) and the value loss (averaged over
+      the critics) are scale-free whatever each group's reward scale. GAE and time-out bootstraps use raw values.
     Use it from any rsl-rl config: ``"algorithm": {"class_name": "pchc_rsl.algorithms:MultiCriticPPO", ...}``.
     """
 
@@ -36,6 +44,7 @@ class MultiCriticPPO(PPO):
         preference_group: str = "preference",
         reward_group_names: list[str] | None = None,
         task_advantage_weight: float = 1.0,
+        value_normalization: bool = True,
         amp_cfg: dict | None = None,
         **kwargs,
     ) -> None:
@@ -55,7 +64,38 @@ class MultiCriticPPO(PPO):
                 "(task first, then one per objective)."
             )
         self.return_stats: dict[str, float] = {}
+        # Running per-critic return statistics; values are predicted in their units (identity when disabled).
+        self.value_normalizer = EmpiricalNormalization(self.num_critics).to(self.device) if value_normalization else None
+        self._reset_group_activity()
         self.amp = AMPStyle(device=self.device, **amp_cfg) if amp_cfg else None
+
+    def _reset_group_activity(self) -> None:
+        """Per-rollout record of each group's reward range and of terminations (what ``silent_groups`` needs)."""
+        self.group_min = torch.full((self.num_critics,), float("inf"), device=self.device)
+        self.group_max = torch.full((self.num_critics,), float("-inf"), device=self.device)
+        self.terminated_in_rollout = False
+
+    def silent_groups(self) -> torch.Tensor:
+        """[K] bool: groups whose reward said nothing about the actions in this rollout.
+
+        A reward that was one constant c at every step is silent when c = 0 (every return is 0) or when no episode
+        terminated (time-outs are bootstrapped, so every return is c / (1 - gamma)); a nonzero constant with
+        terminations is a survival signal and is kept.
+        """
+        span = self.group_max - self.group_min  # inf before the first recorded step: nothing is silent then
+        scale = torch.maximum(self.group_max.abs(), self.group_min.abs()).clamp(min=1.0)
+        constant = torch.isfinite(span) & (span <= 1e-6 * scale)
+        zero = self.group_max.abs() <= 1e-12
+        return constant & (zero | (not self.terminated_in_rollout))
+
+    def act(self, obs: TensorDict) -> torch.Tensor:
+        actions = super().act(obs)
+        self.transition.values = self._raw_values(self.transition.values)
+        return actions
+
+    def _raw_values(self, values: torch.Tensor) -> torch.Tensor:
+        """Critic output [.., K] -> values in return units."""
+        return values if self.value_normalizer is None else self.value_normalizer.inverse(values)
 
     def process_env_step(
         self, obs: TensorDict, rewards: torch.Tensor, dones: torch.Tensor, extras: dict
@@ -76,10 +116,13 @@ class MultiCriticPPO(PPO):
         if self.rnd:
             self.intrinsic_rewards = self.rnd.get_intrinsic_reward(obs)
             self.transition.rewards[:, 0] += self.intrinsic_rewards  # curiosity is preference-invariant: task group
+        self.group_min = torch.minimum(self.group_min, self.transition.rewards.amin(dim=0))
+        self.group_max = torch.maximum(self.group_max, self.transition.rewards.amax(dim=0))
+        time_outs = extras["time_outs"].to(self.device).bool() if "time_outs" in extras else torch.zeros_like(dones, dtype=torch.bool)
+        self.terminated_in_rollout |= bool((dones.bool() & ~time_outs.view_as(dones)).any())
         # Bootstrapping on time-outs, per critic: r_k += gamma * V_k(s_T)
         if "time_outs" in extras:
-            time_outs = extras["time_outs"].to(self.device).unsqueeze(1).float()
-            self.transition.rewards += self.gamma * self.transition.values * time_outs
+            self.transition.rewards += self.gamma * self.transition.values * time_outs.unsqueeze(1).float()
         self.storage.add_transition(self.transition)
         self.transition.clear()
         self.actor.reset(dones)
@@ -89,7 +132,7 @@ class MultiCriticPPO(PPO):
         """Per-critic GAE, per-critic normalisation, then the preference-weighted sum."""
         st = self.storage
         critic_hidden_state = self.critic.get_hidden_state()
-        last_values = self.critic(obs).detach()
+        last_values = self._raw_values(self.critic(obs).detach())
         self.critic.reset(hidden_state=critic_hidden_state)
         advantage = torch.zeros_like(last_values)  # [N, K]
         for step in reversed(range(st.num_transitions_per_env)):
@@ -104,14 +147,22 @@ class MultiCriticPPO(PPO):
         flat = advantages.flatten(0, 1)
         mean, std = flat.mean(dim=0), flat.std(dim=0)
         normalised = (advantages - mean) / (std + 1e-8)
+        silent = self.silent_groups_last = self.silent_groups()
+        normalised = torch.where(silent, torch.zeros_like(normalised), normalised)
         # A^lambda = w_task A_task + sum_i lambda_i A_obj_i
         lam = st.observations[self.preference_group].to(normalised.dtype)  # [T, N, m]
         st.advantages = self.task_advantage_weight * normalised[..., :1] + (lam * normalised[..., 1:]).sum(
             dim=-1, keepdim=True
         )
-        self._record_return_stats(flat, std)
+        self._record_return_stats(flat, std, silent)
+        self._reset_group_activity()
+        if self.value_normalizer is not None:
+            # The value loss compares critic outputs with returns in the normalised units of the updated statistics.
+            self.value_normalizer.update(st.returns.flatten(0, 1))
+            st.values = self.value_normalizer(st.values)
+            st.returns = self.value_normalizer(st.returns)
 
-    def _record_return_stats(self, advantages: torch.Tensor, adv_std: torch.Tensor) -> None:
+    def _record_return_stats(self, advantages: torch.Tensor, adv_std: torch.Tensor, silent: torch.Tensor) -> None:
         """Per-critic value error of the rollout's critic (mean squared raw advantage, returns - values) and raw
         advantage spread, logged with the losses. advantages: [T * N, K]."""
         value_error = advantages.pow(2).mean(dim=0)
@@ -119,6 +170,7 @@ class MultiCriticPPO(PPO):
         for k, name in enumerate(self.reward_group_names):
             self.return_stats[f"value_error/{name}"] = value_error[k].item()
             self.return_stats[f"advantage_std/{name}"] = adv_std[k].item()
+            self.return_stats[f"silent_group/{name}"] = float(silent[k])
 
     def update(self) -> dict[str, float]:
         loss_dict = super().update()
@@ -135,16 +187,25 @@ class MultiCriticPPO(PPO):
         saved = super().save()
         if self.amp is not None:
             saved["amp_state_dict"] = self.amp.state_dict()
+        if self.value_normalizer is not None:
+            saved["value_normalizer_state_dict"] = self.value_normalizer.state_dict()
         return saved
 
     def load(self, loaded_dict: dict, load_cfg: dict | None, strict: bool) -> bool:
         load_iteration = super().load(loaded_dict, load_cfg, strict)
         if self.amp is not None and "amp_state_dict" in loaded_dict and (load_cfg is None or load_cfg.get("amp", True)):
             self.amp.load_state_dict(loaded_dict["amp_state_dict"])
+        if self.value_normalizer is not None and "value_normalizer_state_dict" in loaded_dict and (
+            load_cfg is None or load_cfg.get("critic", True)
+        ):
+            self.value_normalizer.load_state_dict(loaded_dict["value_normalizer_state_dict"])
         return load_iteration
 
     def broadcast_parameters(self) -> None:
         super().broadcast_parameters()
+        if self.value_normalizer is not None:
+            for tensor in self.value_normalizer.state_dict().values():
+                torch.distributed.broadcast(tensor, src=0)
         if self.amp is not None:
             for tensor in self.amp.discriminator.state_dict().values():
                 torch.distributed.broadcast(tensor, src=0)
