@@ -14,7 +14,7 @@ from pchc_rsl.configs.base import (
 )
 from pchc_rsl.configs.g1_fall_recovery import g1_fall_recovery_fast_task, g1_fall_recovery_task
 from pchc_rsl.configs.g1_walk import g1_walk_fast_task, g1_walk_task
-from pchc_rsl.configs.mo_gym import mo_halfcheetah_task, mo_hopper_task
+from pchc_rsl.configs.mo_gym import mo_halfcheetah_task, mo_hopper_3obj_task, mo_hopper_task, mo_walker2d_task
 from pchc_rsl.configs.toy import toy_task
 
 TASKS: dict[str, Callable[[], TaskConfig]] = {
@@ -25,6 +25,8 @@ TASKS: dict[str, Callable[[], TaskConfig]] = {
     "g1-fall-recovery-fast": g1_fall_recovery_fast_task,
     "mo-hopper-2obj-v5": mo_hopper_task,
     "mo-halfcheetah-v5": mo_halfcheetah_task,
+    "mo-walker2d-v5": mo_walker2d_task,
+    "mo-hopper-v5": mo_hopper_3obj_task,
 }
 
 

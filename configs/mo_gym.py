@@ -1,8 +1,11 @@
-"""MO-Gymnasium tasks (``mo-hopper-2obj-v5``, ``mo-halfcheetah-v5``): PCHC on environments nobody here wrote.
+"""MO-Gymnasium tasks: PCHC on environments nobody here wrote.
 
+``mo-hopper-2obj-v5`` (forward, height), ``mo-halfcheetah-v5`` (forward, energy), ``mo-walker2d-v5`` (forward,
+energy) and ``mo-hopper-v5`` (forward, height, energy: three objectives, Dirichlet routing on the 2-simplex).
 PPO settings follow the usual MuJoCo-locomotion PPO (2048 transitions per update, 10 epochs, small networks, no
-entropy bonus) rather than the G1's massively parallel ones. These envs have no preference-invariant reward, so the
-task group is zero and its advantage weight is 0 (its normalised advantage would be pure value noise).
+entropy bonus) rather than the G1's massively parallel ones. Nothing else is special: these envs have no
+preference-invariant reward, and MultiCriticPPO drops the all-zero task group by itself; value normalisation makes
+value clipping and the loss independent of the returns' scale (hundreds to thousands here), so rewards stay raw.
 """
 
 from __future__ import annotations
@@ -38,9 +41,7 @@ def _mo_gym_task(name: str, env: MOGymEnvConfig) -> TaskConfig:
                 entropy_coef=0.0,
                 value_loss_coef=0.5,
                 max_grad_norm=0.5,
-                use_clipped_value_loss=False,
                 reward_group_names=["task", *env.objective_names],
-                task_advantage_weight=0.0,
             ),
             actor=actor,
             critic=critic,
@@ -49,10 +50,20 @@ def _mo_gym_task(name: str, env: MOGymEnvConfig) -> TaskConfig:
 
 
 def mo_hopper_task() -> TaskConfig:
-    env = MOGymEnvConfig(env_id="mo-hopper-2obj-v5", objective_names=["forward", "height"], reward_scale=0.1)
+    env = MOGymEnvConfig(env_id="mo-hopper-2obj-v5", objective_names=["forward", "height"])
     return _mo_gym_task("mo-hopper-2obj-v5", env)
 
 
 def mo_halfcheetah_task() -> TaskConfig:
-    env = MOGymEnvConfig(env_id="mo-halfcheetah-v5", objective_names=["forward", "energy"], reward_scale=0.1)
+    env = MOGymEnvConfig(env_id="mo-halfcheetah-v5", objective_names=["forward", "energy"])
     return _mo_gym_task("mo-halfcheetah-v5", env)
+
+
+def mo_walker2d_task() -> TaskConfig:
+    env = MOGymEnvConfig(env_id="mo-walker2d-v5", objective_names=["forward", "energy"])
+    return _mo_gym_task("mo-walker2d-v5", env)
+
+
+def mo_hopper_3obj_task() -> TaskConfig:
+    env = MOGymEnvConfig(env_id="mo-hopper-v5", objective_names=["forward", "height", "energy"])
+    return _mo_gym_task("mo-hopper-v5", env)

@@ -134,3 +134,13 @@ def test_benchmark_tool_trains_evaluates_and_reports_the_front(tmp_path):
     points = [row["mean_return"] for row in saved["rows"]]
     assert saved["hypervolume"] == pytest.approx(_hypervolume_2d(points, (-100.0, -100.0)), rel=1e-9)
     assert result["num_points"] == len(saved["front"]) >= 1
+
+
+def test_three_objective_evaluation_covers_the_simplex_lattice():
+    preferences = _load_benchmark().evaluation_preferences(3, 11, 6)
+    assert len(preferences) == 28  # (6 + 2 choose 2)
+    points = np.array(preferences)
+    np.testing.assert_allclose(points.sum(1), 1.0, atol=1e-6)
+    assert (points >= 0).all()
+    for vertex in np.eye(3):
+        assert np.abs(points - vertex).sum(1).min() < 1e-6

@@ -1,0 +1,261 @@
+"""The MO-Gymnasium study: a grid of tools/mo_benchmark.py runs over seeds, then a table and figures.
+
+    python tools/mo_study.py --out ~/pchc-runs/mo_study            # run what is missing, then report
+    python tools/mo_study.py --out ~/pchc-runs/mo_study --report-only --docs docs/results
+
+Resumable: a cell whose folder holds a result.json is skipped, so the study continues where it stopped. Cells run
+seed by seed (all of seed 1 first), so a partial study is balanced. Three groups of cells:
+- main: every task x {pci, pci-blind, gated, mlp}, 1M env steps each (the paper's claim that PCI beats the gate);
+- claim (d): on mo-halfcheetah-v5, five fixed-preference policies at lambda_1 = 0, .25, .5, .75, 1, each with a
+  fifth of the budget, whose five points form one front, next to the single PCHC policy's;
+- routing: the PCI actor's routing scale s and the training preferences' Dirichlet concentration, on the two
+  2-objective tasks where the end experts were weak.
+The report (``mo_study.md`` and PNGs) gives each figure as mean and standard deviation over the finished seeds.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+from mo_benchmark import REFERENCE_POINTS  # noqa: E402
+
+from pchc_rsl.pareto import hypervolume, non_dominated, sparsity  # noqa: E402
+
+TASKS = ["mo-hopper-2obj-v5", "mo-halfcheetah-v5", "mo-walker2d-v5", "mo-hopper-v5"]
+VARIANTS = ["pci", "pci-blind", "gated", "mlp"]
+CLAIM_D_TASK = "mo-halfcheetah-v5"
+CLAIM_D_PREFERENCES = [0.0, 0.25, 0.5, 0.75, 1.0]
+ROUTING_TASKS = ["mo-hopper-2obj-v5", "mo-halfcheetah-v5"]
+ROUTING_SETTINGS = {"pci-s3": ["--routing-scale", "3"], "pci-s30": ["--routing-scale", "30"],
+                    "pci-c0.5": ["--preference-concentration", "0.5"]}
+
+
+@dataclass
+class Cell:
+    group: str
+    task: str
+    name: str
+    seed: int
+    args: list[str] = field(default_factory=list)
+
+    def folder(self, root: str) -> str:
+        return os.path.join(root, self.task, f"{self.name}_seed{self.seed}")
+
+
+def study_cells(seeds: list[int], steps: int) -> list[Cell]:
+    cells = []
+    for seed in seeds:
+        for task in TASKS:
+            for variant in VARIANTS:
+                cells.append(Cell("main", task, variant, seed, ["--variant", variant, "--steps", str(steps)]))
+        for lam in CLAIM_D_PREFERENCES:
+            cells.append(Cell("claim_d", CLAIM_D_TASK, f"fixed{lam:.2f}", seed,
+                              ["--variant", "mlp", "--fixed-preference", f"{lam},{1 - lam}",
+                               "--steps", str(steps // len(CLAIM_D_PREFERENCES)), "--eval-every", "0"]))
+        for task in ROUTING_TASKS:
+            for name, extra in ROUTING_SETTINGS.items():
+                cells.append(Cell("routing", task, name, seed, ["--variant", "pci", "--steps", str(steps), *extra]))
+    return cells
+
+
+def run_cell(cell: Cell, root: str) -> None:
+    folder = cell.folder(root)
+    os.makedirs(folder, exist_ok=True)
+    command = [sys.executable, os.path.join(HERE, "mo_benchmark.py"), "--task", cell.task, "--seed", str(cell.seed),
+               "--out", folder, *cell.args]
+    start = time.time()
+    with open(os.path.join(folder, "log.txt"), "w") as log:
+        code = subprocess.call(command, stdout=log, stderr=subprocess.STDOUT)
+    status = "done" if code == 0 else f"FAILED (exit {code}, see {folder}/log.txt)"
+    print(f"[{time.strftime('%H:%M:%S')}] {cell.task} {cell.name} seed {cell.seed}: {status} in "
+          f"{time.time() - start:.0f} s", flush=True)
+
+
+def load_results(cells: list[Cell], root: str) -> dict[tuple[str, str], list[dict]]:
+    """(task, name) -> the finished cells' result.json contents, by seed."""
+    results: dict[tuple[str, str], list[dict]] = {}
+    for cell in cells:
+        path = os.path.join(cell.folder(root), "result.json")
+        if os.path.isfile(path):
+            with open(path) as f:
+                results.setdefault((cell.task, cell.name), []).append(json.load(f))
+    return results
+
+
+def mean_std(values: list[float]) -> str:
+    if not values:
+        return "-"
+    if len(values) == 1:
+        return f"{values[0]:.4g}"
+    return f"{np.mean(values):.4g} ± {np.std(values, ddof=1):.2g}"
+
+
+def claim_d_fronts(results: dict, seeds: list[int]) -> dict[int, float]:
+    """seed -> hypervolume of the front formed by that seed's five fixed-preference policies (all five finished)."""
+    hv = {}
+    for seed in seeds:
+        points = []
+        for lam in CLAIM_D_PREFERENCES:
+            runs = [r for r in results.get((CLAIM_D_TASK, f"fixed{lam:.2f}"), []) if r["seed"] == seed]
+            if runs:
+                points.append(runs[0]["rows"][0]["mean_return"])
+        if len(points) == len(CLAIM_D_PREFERENCES):
+            hv[seed] = hypervolume(non_dominated(points), REFERENCE_POINTS[CLAIM_D_TASK])
+    return hv
+
+
+def markdown_report(results: dict, seeds: list[int], steps: int) -> str:
+    lines = [
+        "# MO-Gymnasium study",
+        "",
+        f"Reproduce: `python tools/mo_study.py --out RUNS --seeds {' '.join(map(str, seeds))} --steps {steps}` "
+        "(resumable), then `--report-only --docs docs/results`.",
+        f"Each run: {steps} env steps (16 envs x 128 steps per iteration), evaluated with the deterministic policy "
+        "on the raw env at 11 evenly spaced preferences (2 objectives) or the 28 points of the resolution-6 simplex lattice "
+        "(3 objectives), 5 seeded episodes each, undiscounted returns. HV: hypervolume of the non-dominated points "
+        "(reference point per task below); S: sparsity (lower is denser). Mean ± standard deviation over seeds "
+        "(n = number of finished seeds).",
+        "",
+        "## PCI against the ablations",
+        "",
+        "| task | reference point | variant | HV | S | non-dominated points | n |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for task in TASKS:
+        for variant in VARIANTS:
+            runs = results.get((task, variant), [])
+            lines.append(
+                f"| {task} | {REFERENCE_POINTS[task]} | {variant} | {mean_std([r['hypervolume'] for r in runs])} | "
+                f"{mean_std([r['sparsity'] for r in runs])} | {mean_std([r['num_points'] for r in runs])} | "
+                f"{len(runs)} |"
+            )
+    hv_d = claim_d_fronts(results, seeds)
+    pci = {r["seed"]: r["hypervolume"] for r in results.get((CLAIM_D_TASK, "pci"), [])}
+    lines += [
+        "",
+        "## Claim (d): one policy against one policy per preference (equal total env steps)",
+        "",
+        f"{CLAIM_D_TASK}: five fixed-preference policies (plain MLP, lambda_1 = "
+        f"{', '.join(map(str, CLAIM_D_PREFERENCES))}, {steps // len(CLAIM_D_PREFERENCES)} steps each), each "
+        "evaluated at its own preference; their five points form one front.",
+        "",
+        "| seed | HV, five fixed-preference policies | HV, one PCHC (pci) policy |",
+        "|---|---|---|",
+    ]
+    for seed in seeds:
+        if seed in hv_d or seed in pci:
+            fixed = f"{hv_d[seed]:.4g}" if seed in hv_d else "-"
+            single = f"{pci[seed]:.4g}" if seed in pci else "-"
+            lines.append(f"| {seed} | {fixed} | {single} |")
+    lines.append(f"| mean | {mean_std(list(hv_d.values()))} | {mean_std(list(pci.values()))} |")
+    lines += [
+        "",
+        "## Routing scale and preference concentration (PCI)",
+        "",
+        "Defaults: routing scale s = 10, Dirichlet concentration 1 (row pci). The end-point columns are the returns "
+        "at lambda = (1, 0) and (0, 1), where the end experts act.",
+        "",
+        "| task | setting | HV | return at (1, 0) | return at (0, 1) | n |",
+        "|---|---|---|---|---|---|",
+    ]
+    for task in ROUTING_TASKS:
+        for name in ["pci", *ROUTING_SETTINGS]:
+            runs = results.get((task, name), [])
+            first = [r["rows"][0]["mean_return"][0] for r in runs]
+            last = [r["rows"][-1]["mean_return"][1] for r in runs]
+            lines.append(f"| {task} | {name} | {mean_std([r['hypervolume'] for r in runs])} | {mean_std(first)} | "
+                         f"{mean_std(last)} | {len(runs)} |")
+    lines += ["", "Figures: `mo_study_fronts.png` (every seed's front, per task and variant), "
+              "`mo_study_hv.png` (hypervolume against env steps, mean over seeds)."]
+    return "\n".join(lines) + "\n"
+
+
+def plot_fronts(results: dict, path: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, len(TASKS), figsize=(4.2 * len(TASKS), 3.8))
+    for ax, task in zip(axes, TASKS):
+        for i, variant in enumerate(VARIANTS):
+            for j, run in enumerate(results.get((task, variant), [])):
+                front = np.array(run["front"])
+                order = np.argsort(front[:, 0])
+                ax.plot(front[order, 0], front[order, 1], "o-", ms=3, lw=0.8, color=f"C{i}", alpha=0.8,
+                        label=variant if j == 0 else None)
+        ax.set_title(task + (" (first 2 objectives)" if task == "mo-hopper-v5" else ""), fontsize=9)
+        ax.set_xlabel("objective 1")
+        ax.set_ylabel("objective 2")
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=80)
+    plt.close(fig)
+
+
+def plot_hypervolume(results: dict, path: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, len(TASKS), figsize=(4.2 * len(TASKS), 3.5))
+    for ax, task in zip(axes, TASKS):
+        for i, variant in enumerate(VARIANTS):
+            runs = results.get((task, variant), [])
+            if not runs:
+                continue
+            steps = [h["env_steps"] for h in runs[0]["history"]]
+            curves = np.array([[h["hypervolume"] for h in r["history"]] for r in runs
+                               if len(r["history"]) == len(steps)])
+            mean, std = curves.mean(0), curves.std(0)
+            ax.plot(steps, mean, "o-", color=f"C{i}", label=f"{variant} (n={len(curves)})")
+            ax.fill_between(steps, mean - std, mean + std, color=f"C{i}", alpha=0.15)
+        ax.set_title(task, fontsize=9)
+        ax.set_xlabel("env steps")
+        ax.set_ylabel("hypervolume")
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=80)
+    plt.close(fig)
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--out", required=True, help="folder of the runs (keep it outside the repository)")
+    parser.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
+    parser.add_argument("--steps", type=int, default=1_000_000)
+    parser.add_argument("--groups", nargs="+", default=["main", "claim_d", "routing"],
+                        choices=["main", "claim_d", "routing"])
+    parser.add_argument("--report-only", action="store_true", help="write the report from finished cells only")
+    parser.add_argument("--docs", help="also copy the report and figures into this folder (e.g. docs/results)")
+    args = parser.parse_args(argv)
+
+    cells = [c for c in study_cells(args.seeds, args.steps) if c.group in args.groups]
+    if not args.report_only:
+        todo = [c for c in cells if not os.path.isfile(os.path.join(c.folder(args.out), "result.json"))]
+        print(f"{len(cells) - len(todo)} of {len(cells)} cells finished; running {len(todo)}", flush=True)
+        for cell in todo:
+            run_cell(cell, args.out)
+    results = load_results(cells, args.out)
+    for folder in [args.out] + ([args.docs] if args.docs else []):
+        os.makedirs(folder, exist_ok=True)
+        with open(os.path.join(folder, "mo_study.md"), "w") as f:
+            f.write(markdown_report(results, args.seeds, args.steps))
+        plot_fronts(results, os.path.join(folder, "mo_study_fronts.png"))
+        plot_hypervolume(results, os.path.join(folder, "mo_study_hv.png"))
+    print(f"report: {os.path.join(args.out, 'mo_study.md')}" + (f" and {args.docs}" if args.docs else ""))
+
+
+if __name__ == "__main__":
+    main()
