@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import torch
 
 from pchc_rsl.envs.g1_env import G1Env, G1EnvConfig
+from pchc_rsl.envs.g1_metrics import ratio
 
 STAND_HEIGHT = 0.7
 FALL_HEIGHT = 0.5
@@ -57,10 +58,10 @@ class G1FallRecoveryEnv(G1Env):
     def __init__(self, cfg: FallRecoveryConfig, num_envs: int, device: str = "cpu", seed: int = 0) -> None:
         self.assist_level = 1.0 if cfg.curriculum else 0.0
         self.global_steps = 0
-        super().__init__(cfg, num_envs, device, seed)
-        self.torso_id = self.model.body("torso_link").id
         self.reached_standing = torch.zeros(num_envs, dtype=torch.bool)
         self.fell_after_standing = torch.zeros(num_envs, dtype=torch.bool)
+        super().__init__(cfg, num_envs, device, seed)
+        self.torso_id = self.model.body("torso_link").id
         self._update_eta()
 
     def initial_state(self, env_ids: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
@@ -76,19 +77,17 @@ class G1FallRecoveryEnv(G1Env):
         qpos[:, 2] = self.cfg.initial_height
         return qpos, qvel
 
-    def _reset(self, env_ids: torch.Tensor) -> None:
-        if len(env_ids) and hasattr(self, "reached_standing"):
-            self._update_assist(env_ids)
-            self.reached_standing[env_ids] = False
-            self.fell_after_standing[env_ids] = False
-        super()._reset(env_ids)
+    def _before_reset(self, env_ids: torch.Tensor) -> None:
+        self._update_assist(env_ids)
+        self.reached_standing[env_ids] = False
+        self.fell_after_standing[env_ids] = False
 
     # ---------------------------------------------------------------- curriculum
     def _update_assist(self, env_ids: torch.Tensor) -> None:
         """HoST-style: shrink the assist once most of the episodes that just ended stood up."""
         if not self.cfg.curriculum or self.episode_length_buf[env_ids].max() == 0:
             return
-        success = (self.reached_standing[env_ids] & ~self.fell_after_standing[env_ids]).float().mean().item()
+        success = self.succeeded(env_ids).float().mean().item()
         if success >= self.cfg.assist_success_threshold:
             self.assist_level = max(0.0, self.assist_level - self.cfg.assist_level_step)
 
@@ -107,20 +106,30 @@ class G1FallRecoveryEnv(G1Env):
         self.global_steps += 1
         self._update_eta()
 
+    def _after_physics(self) -> None:
+        """HoST's success bookkeeping: stood up (pelvis above 0.7 m), and fell again afterwards (below 0.5 m)."""
+        height = self.robot.base_pos[:, 2]
+        self.reached_standing |= height > STAND_HEIGHT
+        self.fell_after_standing |= self.reached_standing & (height < FALL_HEIGHT)
+
+    def _push_eligible(self) -> torch.Tensor | None:
+        return self.reached_standing if self.cfg.push.only_when_standing else None
+
+    def succeeded(self, env_ids: torch.Tensor) -> torch.Tensor:
+        return self.reached_standing[env_ids] & ~self.fell_after_standing[env_ids]
+
     # ---------------------------------------------------------------- metrics
     def _terminated(self) -> torch.Tensor:
         """Lying down is where this task starts, not a failure: episodes end by time-out only."""
         return torch.zeros(self.num_envs, dtype=torch.bool)
 
-    def metrics(self) -> dict[str, torch.Tensor]:
-        height = self.base_pos[:, 2]
-        self.reached_standing |= height > STAND_HEIGHT
-        self.fell_after_standing |= self.reached_standing & (height < FALL_HEIGHT)
+    def step_metrics(self) -> dict[str, torch.Tensor]:
         standing = self.reached_standing.float()
         # mechanical energy this step, J: sum_k sum_j |tau_j dq_j| * timestep over the substeps
-        energy = (self.torques_substeps * self.joint_vel_substeps).abs().sum(dim=(1, 2)) * self.cfg.timestep
-        torque = self.torques.abs().sum(-1)  # Nm, summed over joints
+        energy = (self.robot.torques_substeps * self.robot.joint_vel_substeps).abs().sum(dim=(1, 2)) * self.cfg.timestep
+        torque = self.robot.torques.abs().sum(-1)  # Nm, summed over joints
         return {
+            **super().step_metrics(),
             "energy_recovery": energy * (1 - standing),
             "energy_standing": energy * standing,
             "torque_recovery": torque * (1 - standing),
@@ -130,30 +139,39 @@ class G1FallRecoveryEnv(G1Env):
         }
 
     def episode_metrics(self, env_ids: torch.Tensor) -> dict[str, torch.Tensor]:
-        """Table I per finished episode: energy (J, summed over the episode and per phase), torque (Nm, mean over
-        the steps of each phase of sum_j |tau_j|), COM displacement under pushes (m; pelvis as COM proxy: largest
-        horizontal distance from the pre-push position in the window after each push, averaged over pushes) and
-        HoST success."""
-        s = {k: v[env_ids] for k, v in self.metric_sums.items()}
-        nan = torch.tensor(float("nan"))
+        """Table I per episode. Energy: mean mechanical power sum_j |tau_j dq_j| in J/s, overall and in each phase
+        (so, as in the paper's table, the overall figure lies between the phases'); torque: mean over the steps of
+        each phase of sum_j |tau_j| (Nm); COM displacement: the whole-body COM's largest horizontal distance from
+        its pre-push position within the window after each push, averaged over pushes (m); HoST success."""
+        s = self.episode.get(env_ids)
+        dt = self.dt
         steps = s["steps_recovery"] + s["steps_standing"]
-
-        def mean(total, count):
-            return torch.where(count > 0, total / count.clamp(min=1), nan)
-
+        com, pushes = self._push_sums(env_ids, "com_deviation_sum", self.pushes.max_com_deviation)
         return {
-            "energy_overall": s["energy_recovery"] + s["energy_standing"],
-            "energy_recovery": s["energy_recovery"],
-            "energy_standing": torch.where(s["steps_standing"] > 0, s["energy_standing"], nan),
-            "torque_overall": mean(s["torque_recovery"] + s["torque_standing"], steps),
-            "torque_recovery": mean(s["torque_recovery"], s["steps_recovery"]),
-            "torque_standing": mean(s["torque_standing"], s["steps_standing"]),
-            "com_displacement": mean(s["push_deviation_sum"], s["pushes"]),
-            "success": (self.reached_standing[env_ids] & ~self.fell_after_standing[env_ids]).float(),
+            "energy_overall": ratio(s["energy_recovery"] + s["energy_standing"], steps * dt),
+            "energy_recovery": ratio(s["energy_recovery"], s["steps_recovery"] * dt),
+            "energy_standing": ratio(s["energy_standing"], s["steps_standing"] * dt),
+            "torque_overall": ratio(s["torque_recovery"] + s["torque_standing"], steps),
+            "torque_recovery": ratio(s["torque_recovery"], s["steps_recovery"]),
+            "torque_standing": ratio(s["torque_standing"], s["steps_standing"]),
+            "com_displacement": ratio(com, pushes),
+            "success": self.succeeded(env_ids).float(),
         }
 
-    def _episode_log(self, done_ids: torch.Tensor, finished: dict[str, torch.Tensor]) -> dict:
-        log = super()._episode_log(done_ids, finished)
+    def _episode_log(self, done_ids: torch.Tensor, finished: dict[str, torch.Tensor], unstable: int) -> dict:
+        log = super()._episode_log(done_ids, finished, unstable)
         log["Curriculum/assist_level"] = torch.tensor(self.assist_level)
         log["Curriculum/action_scale"] = self.action_scale[0, 0].clone()
         return log
+
+    # ---------------------------------------------------------------- checkpointed state
+    def state_dict(self) -> dict:
+        """The curriculum (assist level, eta's step counter) travels with the checkpoint: a resumed run continues
+        at the assist and action scale it had reached."""
+        return {**super().state_dict(), "assist_level": self.assist_level, "global_steps": self.global_steps}
+
+    def load_state_dict(self, state: dict) -> None:
+        super().load_state_dict(state)
+        self.assist_level = float(state["assist_level"])
+        self.global_steps = int(state["global_steps"])
+        self._update_eta()

@@ -1,6 +1,7 @@
 """Reward terms for the G1 tasks: ``term(env, **params) -> Tensor[N]``, weighted and grouped by the task config.
 
-The env multiplies each term by its weight and the policy step dt and adds it to the term's group.
+The env multiplies each term by its weight and the policy step dt and adds it to the term's group. Terms read the
+env's parts: ``env.robot`` (state), ``env.feet`` (contacts, strides), ``env.pushes`` (the after-disturb window).
 """
 
 from __future__ import annotations
@@ -10,50 +11,51 @@ import torch
 
 def track_lin_vel_xy(env, std: float) -> torch.Tensor:
     """exp(-||v_cmd_xy - v_base_xy||^2 / std^2), base frame."""
-    return torch.exp(-((env.commands[:, :2] - env.base_lin_vel[:, :2]) ** 2).sum(-1) / std**2)
+    return torch.exp(-((env.commands[:, :2] - env.robot.base_lin_vel[:, :2]) ** 2).sum(-1) / std**2)
 
 
 def track_ang_vel_z(env, std: float) -> torch.Tensor:
     """exp(-(w_cmd - w_z)^2 / std^2)."""
-    return torch.exp(-((env.commands[:, 2] - env.base_ang_vel[:, 2]) ** 2) / std**2)
+    return torch.exp(-((env.commands[:, 2] - env.robot.base_ang_vel[:, 2]) ** 2) / std**2)
 
 
 def flat_orientation(env) -> torch.Tensor:
     """||g_xy||^2 of gravity in the base frame: 0 when upright."""
-    return (env.projected_gravity[:, :2] ** 2).sum(-1)
+    return (env.robot.projected_gravity[:, :2] ** 2).sum(-1)
 
 
 def base_height(env, target: float) -> torch.Tensor:
     """(z_pelvis - target)^2."""
-    return (env.base_pos[:, 2] - target) ** 2
+    return (env.robot.base_pos[:, 2] - target) ** 2
 
 
 def feet_air_time(env, threshold: float) -> torch.Tensor:
     """Sum over touchdowns of (air time - threshold), only while a velocity is commanded (legged_gym's term)."""
     moving = env.commands[:, :2].norm(dim=-1) > 0.1
-    return ((env.last_air_time - threshold) * env.first_contact).sum(-1) * moving
+    return ((env.feet.last_air_time - threshold) * env.feet.first_contact).sum(-1) * moving
 
 
 def feet_slip(env) -> torch.Tensor:
     """Sum over feet in contact of the squared horizontal foot speed."""
-    return (env.foot_contact * (env.foot_vel[..., :2] ** 2).sum(-1)).sum(-1)
+    return (env.feet.contact * (env.robot.foot_vel[..., :2] ** 2).sum(-1)).sum(-1)
 
 
 def feet_clearance(env, target_height: float) -> torch.Tensor:
     """Swing feet away from target_height, weighted by their horizontal speed."""
-    speed = env.foot_vel[..., :2].norm(dim=-1)
-    return (~env.foot_contact * (env.foot_pos[..., 2] - target_height) ** 2 * speed).sum(-1)
+    speed = env.robot.foot_vel[..., :2].norm(dim=-1)
+    return (~env.feet.contact * (env.robot.foot_pos[..., 2] - target_height) ** 2 * speed).sum(-1)
 
 
 def joint_limits(env) -> torch.Tensor:
     """How far joints are outside 90% of their range (rad, summed)."""
     low, high = env.soft_joint_limits[:, 0], env.soft_joint_limits[:, 1]
-    return ((low - env.joint_pos).clamp(min=0) + (env.joint_pos - high).clamp(min=0)).sum(-1)
+    q = env.robot.joint_pos
+    return ((low - q).clamp(min=0) + (q - high).clamp(min=0)).sum(-1)
 
 
 def torques(env) -> torch.Tensor:
     """sum_j tau_j^2."""
-    return (env.torques**2).sum(-1)
+    return (env.robot.torques**2).sum(-1)
 
 
 def action_rate(env) -> torch.Tensor:
@@ -67,37 +69,38 @@ def alive(env) -> torch.Tensor:
 
 def stride(env) -> torch.Tensor:
     """The paper's r_stride = 1_contact ||p_current - p_last_contact|| at each touchdown, summed over feet."""
-    return env.stride.sum(-1)
+    return env.feet.stride.sum(-1)
 
 
 def disturbance(env) -> torch.Tensor:
-    """The paper's r_disturb = 1_after-disturb (-||x_base - x_last|| - |v_base . d|), horizontal.
+    """The paper's r_disturb = 1_after-disturb (-||x_base - x_ref|| - |(v_base - v_ref) . d|), horizontal.
 
-    x_last advances with the commanded velocity during the window (env.push_deviation), so walking as commanded is
-    not penalised; with no command it is the pre-push position, as in the paper.
+    Both terms are relative to the same reference: x_ref = x_last + v_ref t moves at the commanded velocity v_ref
+    (turned into the world frame at the push), so walking on as commanded is not penalised and stopping is not
+    rewarded; with no command v_ref = 0 and this is the paper's equation.
     """
-    along_push = (env.base_lin_vel_w[:, :2] * env.push_dir).sum(-1).abs()
-    return env.after_push * (-env.push_deviation.norm(dim=-1) - along_push)
+    pushes = env.pushes
+    return pushes.active * (-pushes.deviation(env.robot).norm(dim=-1) - pushes.relative_velocity_along_push(env.robot))
 
 
 def energy(env, k_tau: float, k_p: float) -> torch.Tensor:
     """The paper's r_energy = -k_tau sum_j tau_j^2 - k_p sum_j |dq_j| |tau_j|, averaged over the physics substeps."""
-    tau, dq = env.torques_substeps, env.joint_vel_substeps  # [N, K, J]
+    tau, dq = env.robot.torques_substeps, env.robot.joint_vel_substeps  # [N, K, J]
     per_substep = -k_tau * (tau**2).sum(-1) - k_p * (dq.abs() * tau.abs()).sum(-1)
     return per_substep.mean(dim=1)
 
 
 def pelvis_height(env, target: float) -> torch.Tensor:
     """min(z_pelvis, target) / target in [0, 1]: progress towards standing (HoST rewards head height likewise)."""
-    return env.base_pos[:, 2].clamp(min=0.0, max=target) / target
+    return env.robot.base_pos[:, 2].clamp(min=0.0, max=target) / target
 
 
 def upright(env) -> torch.Tensor:
     """How much the pelvis' up axis points up, in [0, 1]."""
-    return (-env.projected_gravity[:, 2]).clamp(min=0.0)
+    return (-env.robot.projected_gravity[:, 2]).clamp(min=0.0)
 
 
 def standing_posture(env, min_height: float, std: float) -> torch.Tensor:
     """Once standing (pelvis above min_height), exp(-||q - q_default||^2 / std^2): HoST's post-standing target pose."""
-    error = ((env.joint_pos - env.default_joint_pos) ** 2).sum(-1)
-    return (env.base_pos[:, 2] > min_height) * torch.exp(-error / std**2)
+    error = ((env.robot.joint_pos - env.default_joint_pos) ** 2).sum(-1)
+    return (env.robot.base_pos[:, 2] > min_height) * torch.exp(-error / std**2)

@@ -44,11 +44,14 @@ class BatchedMuJoCo:
             width += 6 * m.nbody
         self.control = np.zeros((num_envs, substeps, width))
         self.body_forces = np.zeros((num_envs, m.nbody, 6)) if with_body_forces else None
+        self.diverged = np.zeros(num_envs, dtype=bool)
+        """Envs whose physics MuJoCo had to reset during the last step."""
 
     def step(self, ctrl: np.ndarray) -> None:
         """Advance every env ``substeps`` physics steps holding ``ctrl`` [N, nu] (and ``body_forces`` [N, nbody, 6]
         if enabled); fills substep_states and substep_sensors."""
         nu = self.model.nu
+        expected_time = self.state[:, 0] + self.substeps * self.model.opt.timestep
         self.control[:, :, :nu] = ctrl[:, None, :]
         if self.body_forces is not None:
             self.control[:, :, nu:] = self.body_forces.reshape(self.num_envs, 1, -1)
@@ -57,6 +60,9 @@ class BatchedMuJoCo:
             state=self.substep_states, sensordata=self.substep_sensors, skip_checks=True,
         )
         self.state[:] = self.substep_states[:, -1]
+        # MuJoCo resets an env's data by itself when its accelerations blow up (warning "simulation is unstable"),
+        # which restarts its clock: the state looks healthy, so diverged envs are recognised by their time.
+        self.diverged = np.abs(self.state[:, 0] - expected_time) > 0.5 * self.model.opt.timestep
 
     @property
     def qpos(self) -> np.ndarray:
@@ -77,9 +83,24 @@ class BatchedMuJoCo:
         return slice(int(sensor.adr[0]), int(sensor.adr[0] + sensor.dim[0]))
 
     def set_qpos_qvel(self, env_ids: np.ndarray, qpos: np.ndarray, qvel: np.ndarray) -> None:
-        """Reset the chosen envs to (qpos, qvel) at rest: time 0, no actuator state, no warm start."""
+        """Reset the chosen envs to (qpos, qvel) at rest: time 0, no actuator state, no warm start.
+
+        A forward pass then fills their sensors and substep records, so that what an env reads right after a reset
+        (foot positions, contacts, COM) describes the new state, not zeros or the previous episode.
+        """
         state = self.state[env_ids]
         state[:] = 0.0
         state[:, self.qpos_slice] = qpos
         state[:, self.qvel_slice] = qvel
         self.state[env_ids] = state
+        self.forward(env_ids)
+
+    def forward(self, env_ids: np.ndarray) -> None:
+        """mj_forward on the chosen envs' states: their sensors, for every substep slot, and their substep states."""
+        data = self.datas[0]
+        for i in np.asarray(env_ids).reshape(-1):
+            model = self.models[i]
+            mujoco.mj_setState(model, data, self.state[i], STATE_SPEC)
+            mujoco.mj_forward(model, data)
+            self.substep_sensors[i] = data.sensordata
+            self.substep_states[i] = self.state[i]

@@ -51,13 +51,16 @@ class ToyEnv(VecEnv):
         self.preferences = EnvPreferences(num_envs, self.num_objectives, cfg.preference_concentration, self.generator,
                                           device)
         self.preference = self.preferences.values
-        self._reset(torch.arange(num_envs, device=device))
+        self.reset()
 
     def set_preference(self, lam) -> None:
         """Hold lambda ([m] for all envs, or [N, m]) from now on, also across resets; ``None`` resumes sampling."""
         self.preferences.hold(lam)
 
-    def _reset(self, env_ids: torch.Tensor) -> None:
+    def reset(self, env_ids: torch.Tensor | None = None) -> None:
+        """Start new episodes in these envs (all by default)."""
+        if env_ids is None:
+            env_ids = torch.arange(self.num_envs, device=self.device)
         n = len(env_ids)
         if n == 0:
             return
@@ -106,5 +109,5 @@ class ToyEnv(VecEnv):
             for i, name in enumerate(self.cfg.objective_names):
                 log[f"Episode_Objective/{name}"] = sums[:, 1 + i].mean()
         extras = {"time_outs": time_outs.clone(), "reward_groups": reward_groups, "log": log}
-        self._reset(done_ids)
+        self.reset(done_ids)
         return self.get_observations(), reward, time_outs.clone(), extras

@@ -71,20 +71,28 @@ def test_stride_reward_from_scripted_contacts():
 
     env = make_walk_env(num_envs=1)
     K = env.cfg.decimation
-    env.foot_contact[:] = torch.tensor([[False, True]])  # left foot in the air, right on the ground
-    env.last_contact_pos[:] = torch.tensor([[[0.0, 0.0], [0.2, -0.1]]])
-    env.foot_pos = torch.tensor([[[0.3, 0.4, 0.03], [0.2, -0.1, 0.03]]])
+    feet = env.feet
+    feet.contact[:] = torch.tensor([[False, True]])  # left foot in the air, right on the ground
+    feet.last_contact_pos[:] = torch.tensor([[[0.0, 0.0], [0.2, -0.1]]])
+    foot_pos = torch.tensor([[[0.3, 0.4, 0.03], [0.2, -0.1, 0.03]]])
     touch = torch.zeros(1, K, 2)
     touch[0, K // 2 :, 0] = 50.0  # left touches down mid-step
     touch[0, :, 1] = 200.0  # right stays down
-    env.foot_touch_substeps = touch
-    env._update_contacts()
-    assert env.first_contact.tolist() == [[True, False]]
+    feet.update(touch, foot_pos)
+    assert feet.first_contact.tolist() == [[True, False]]
     assert g1_rewards.stride(env).item() == pytest.approx(0.5)  # |(0.3, 0.4) - (0, 0)|
     # the touchdown point becomes the new last-contact point; the next touchdown measures from there
-    torch.testing.assert_close(env.last_contact_pos[0, 0], torch.tensor([0.3, 0.4]))
-    env._update_contacts()
+    torch.testing.assert_close(feet.last_contact_pos[0, 0], torch.tensor([0.3, 0.4]))
+    feet.update(touch, foot_pos)
     assert g1_rewards.stride(env).item() == 0.0  # still in contact: no new touchdown
+
+
+def push_now(env):
+    """Push every env at once (as the countdown running out would); returns the velocity kick [N, 2]."""
+    before = torch.from_numpy(env.physics.qvel[:, :2].copy()).float()
+    env.pushes.countdown[:] = 1
+    env.pushes.apply(env.physics, env.robot, env.commands)
+    return torch.from_numpy(env.physics.qvel[:, :2].copy()).float() - before
 
 
 def test_push_records_direction_and_gives_r_disturb():
@@ -92,34 +100,52 @@ def test_push_records_direction_and_gives_r_disturb():
 
     env = make_walk_env(num_envs=3)
     env.commands[:] = 0.0
-    before = torch.from_numpy(env.physics.qvel[:, :2].copy()).float()
-    env.push_countdown[:] = 1
-    env._apply_pushes()
-    after = torch.from_numpy(env.physics.qvel[:, :2].copy()).float()
-    kick = after - before
+    kick = push_now(env)
     speed = kick.norm(dim=-1)
     low, high = env.cfg.push.velocity
     assert ((speed >= low - 1e-6) & (speed <= high + 1e-6)).all()
-    torch.testing.assert_close(kick / speed.unsqueeze(-1), env.push_dir)
-    torch.testing.assert_close(env.push_origin, env.base_pos[:, :2])
-    assert env.after_push.all()
+    pushes, robot = env.pushes, env.robot
+    torch.testing.assert_close(kick / speed.unsqueeze(-1), pushes.direction)
+    torch.testing.assert_close(pushes.origin, robot.base_pos[:, :2])
+    assert pushes.active.all()
     env.step(torch.zeros(3, 20))
-    by_hand = -(env.base_pos[:, :2] - env.push_origin).norm(dim=-1) - (
-        env.base_lin_vel_w[:, :2] * env.push_dir
+    by_hand = -(robot.base_pos[:, :2] - pushes.origin).norm(dim=-1) - (
+        robot.base_lin_vel_w[:, :2] * pushes.direction
     ).sum(-1).abs()
     torch.testing.assert_close(g1_rewards.disturbance(env), by_hand)
     assert (by_hand < 0).all()
+
+
+def test_r_disturb_measures_position_and_velocity_against_the_same_moving_reference():
+    """Walking on at the commanded velocity after a push costs nothing; stopping costs in both terms."""
+    from pchc_rsl.envs import g1_rewards
+
+    env = make_walk_env(num_envs=2)
+    env.commands[:] = torch.tensor([0.5, 0.0, 0.0])
+    push_now(env)
+    pushes, robot = env.pushes, env.robot
+    pushes.direction[:] = torch.tensor([1.0, 0.0])
+    pushes.ref_vel[:] = torch.tensor([0.5, 0.0])  # heading along +x
+    pushes.elapsed[:] = 0.4
+    robot.base_pos = robot.base_pos.clone()
+    robot.base_lin_vel_w = robot.base_lin_vel_w.clone()
+    robot.base_pos[:, :2] = pushes.origin + torch.tensor([0.2, 0.0])  # on the reference after 0.4 s
+    robot.base_lin_vel_w[0, :2] = torch.tensor([0.5, 0.0])  # env 0 walks on as commanded
+    robot.base_lin_vel_w[1, :2] = torch.tensor([0.0, 0.0])  # env 1 stopped
+    reward = g1_rewards.disturbance(env)
+    assert reward[0].item() == pytest.approx(0.0, abs=1e-6)
+    assert reward[1].item() == pytest.approx(-0.5, abs=1e-6)
 
 
 def test_reset_restores_a_valid_standing_state():
     env = make_walk_env(num_envs=2)
     for _ in range(5):
         env.step(torch.randn(2, 20, generator=torch.Generator().manual_seed(0)) * 3)
-    env._reset(torch.tensor([1]))
+    env.reset(torch.tensor([1]))
     assert env.episode_length_buf[1] == 0
-    assert env.base_pos[1, 2].item() == pytest.approx(0.76)
-    torch.testing.assert_close(env.base_quat[1], torch.tensor([1.0, 0.0, 0.0, 0.0]))
-    assert (env.joint_pos[1] - env.default_joint_pos).abs().max() <= env.cfg.initial_joint_noise + 1e-6
+    assert env.robot.base_pos[1, 2].item() == pytest.approx(0.76)
+    torch.testing.assert_close(env.robot.base_quat[1], torch.tensor([1.0, 0.0, 0.0, 0.0]))
+    assert (env.robot.joint_pos[1] - env.default_joint_pos).abs().max() <= env.cfg.initial_joint_noise + 1e-6
     assert torch.isfinite(env.get_observations()["policy"]).all()
 
 

@@ -21,10 +21,10 @@ def test_episodes_start_prone_or_supine():
     env = make_env()
     assert env.num_actions == 23
     # face down: the body's forward axis points at the floor, so gravity in the base frame is +x
-    torch.testing.assert_close(env.projected_gravity, torch.tensor([[1.0, 0.0, 0.0]]).expand(3, 3), atol=1e-5, rtol=0)
-    assert (env.base_pos[:, 2] == pytest.approx(0.3))
+    torch.testing.assert_close(env.robot.projected_gravity, torch.tensor([[1.0, 0.0, 0.0]]).expand(3, 3), atol=1e-5, rtol=0)
+    assert (env.robot.base_pos[:, 2] == pytest.approx(0.3))
     supine = make_env(supine_probability=1.0)
-    torch.testing.assert_close(supine.projected_gravity, torch.tensor([[-1.0, 0.0, 0.0]]).expand(3, 3), atol=1e-5, rtol=0)
+    torch.testing.assert_close(supine.robot.projected_gravity, torch.tensor([[-1.0, 0.0, 0.0]]).expand(3, 3), atol=1e-5, rtol=0)
 
 
 def test_energy_reward_equals_a_hand_computation():
@@ -33,7 +33,7 @@ def test_energy_reward_equals_a_hand_computation():
     env = make_env(num_envs=1)
     tau = torch.tensor([[[2.0, -3.0] + [0.0] * 21, [1.0, 1.0] + [0.0] * 21]])  # [1, K=2, 23]
     dq = torch.tensor([[[0.5, 2.0] + [0.0] * 21, [-1.0, 0.0] + [0.0] * 21]])
-    env.torques_substeps, env.joint_vel_substeps = tau, dq
+    env.robot.torques_substeps, env.robot.joint_vel_substeps = tau, dq
     k_tau, k_p = 0.1, 0.01
     substep_1 = -k_tau * (4 + 9) - k_p * (0.5 * 2 + 2 * 3)
     substep_2 = -k_tau * (1 + 1) - k_p * (1 * 1 + 0 * 1)
@@ -56,9 +56,9 @@ def test_env_tracks_success_like_the_rule():
     env = make_env(num_envs=3)
     trajectories = torch.tensor([[0.2, 0.75, 0.6, 0.72], [0.2, 0.75, 0.45, 0.8], [0.2, 0.3, 0.4, 0.3]])
     for t in range(trajectories.shape[1]):
-        env.base_pos = env.base_pos.clone()
-        env.base_pos[:, 2] = trajectories[:, t]
-        env.metrics()
+        env.robot.base_pos = env.robot.base_pos.clone()
+        env.robot.base_pos[:, 2] = trajectories[:, t]
+        env._after_physics()
     tracked = (env.reached_standing & ~env.fell_after_standing).tolist()
     assert tracked == [host_success(h) for h in trajectories]
 

@@ -13,7 +13,7 @@ def evaluate(runner, preference):
     env = runner.env
     policy = runner.get_inference_policy()
     env.set_preference(preference)
-    env._reset(torch.arange(env.num_envs))
+    env.reset()
     obs = env.get_observations()
     sums = torch.zeros(env.num_objectives)
     positions = []

@@ -32,7 +32,7 @@ def measure(num_envs: int, threads: int, steps: int, repeats: int, task: str) ->
     ctrl = env.default_joint_pos.double().expand(num_envs, -1).numpy().copy()
     env_times, bare_times = [], []
     for _ in range(repeats):
-        env._reset(torch.arange(num_envs))
+        env.reset()
         start_state = env.physics.state.copy()
         start = time.perf_counter()
         for _ in range(steps):

@@ -9,6 +9,8 @@ import mujoco
 from pchc_rsl.robots.g1.constants import DEFAULT_POSE, FOOT_BODIES, FOOT_SITES, joint_gains, joint_motor
 
 ALL_JOINTS_MARKER = "floating_base_joint"
+COLLISION_GROUP = 3
+"""Geom group of the menagerie G1's collision primitives; group 2 holds the visual meshes (density 0)."""
 SOLE_HALF_SIZE = (0.0935, 0.0365, 0.01)
 """Half sizes of the box that replaces the seven sole capsules of each foot (same footprint, 4 contacts not 14)."""
 SOLE_CENTER = (0.0395, 0.0, -0.025)
@@ -30,12 +32,17 @@ def load_g1_spec() -> mujoco.MjSpec:
         raise RuntimeError(f"Could not load the Unitree G1 from mujoco-menagerie ({error}); {hint}.") from error
 
 
-def build_g1_model(joints: list[str], timestep: float = 0.002, lean_feet: bool = True) -> mujoco.MjModel:
+def build_g1_model(joints: list[str], timestep: float = 0.002, lean_feet: bool = True,
+                   visual: bool = False) -> mujoco.MjModel:
     """Compile a G1 that actuates exactly ``joints`` (in that order) with position actuators.
 
     Joints not in ``joints`` are deleted, which welds their bodies to the parent (mass kept, no cost).
-    Sensors, in this order: per foot a framepos, a framelinvel and a touch sensor (sole contact force);
-    then one actuatorfrc per actuator. Robot geoms collide with the floor only (no self-collision).
+    Only collision geoms (group 3) collide, and only with the floor (no self-collision). ``visual=False`` (the
+    physics model) drops the visual meshes altogether: they weigh nothing (density 0) but are 197k vertices, about
+    70 MB per model copy; ``visual=True`` keeps them, non-colliding, for rendering the same physics state.
+    The floor has geom priority 1, so a contact's friction is the floor's (randomisable), not the larger of the two.
+    Sensors: per foot a framepos, a framelinvel and a touch sensor (sole contact force); the whole-body centre of
+    mass (subtree COM of the pelvis); then one actuatorfrc per actuator.
     """
     spec = load_g1_spec()
     spec.option.timestep = timestep
@@ -47,8 +54,16 @@ def build_g1_model(joints: list[str], timestep: float = 0.002, lean_feet: bool =
         if joint.name != ALL_JOINTS_MARKER and joint.name not in joints:
             spec.delete(joint)
 
-    for geom in spec.geoms:
-        geom.contype, geom.conaffinity = 1, 0  # robot: collides with the floor only
+    for geom in list(spec.geoms):
+        if geom.group == COLLISION_GROUP:
+            geom.contype, geom.conaffinity = 1, 0  # robot: collides with the floor only
+        elif visual:
+            geom.contype, geom.conaffinity = 0, 0
+        else:
+            spec.delete(geom)
+    if not visual:
+        for mesh in list(spec.meshes):
+            spec.delete(mesh)
     if lean_feet:
         for geom in list(spec.geoms):
             if "_foot" in geom.name and geom.name.endswith("_collision"):
@@ -56,11 +71,12 @@ def build_g1_model(joints: list[str], timestep: float = 0.002, lean_feet: bool =
         for body_name in FOOT_BODIES:
             spec.body(body_name).add_geom(
                 name=body_name.replace("ankle_roll_link", "sole"), type=mujoco.mjtGeom.mjGEOM_BOX,
-                size=SOLE_HALF_SIZE, pos=SOLE_CENTER, contype=1, conaffinity=0, rgba=(0.2, 0.2, 0.2, 1),
+                size=SOLE_HALF_SIZE, pos=SOLE_CENTER, contype=1, conaffinity=0, group=COLLISION_GROUP,
+                rgba=(0.2, 0.2, 0.2, 1),
             )
     spec.worldbody.add_geom(
         name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=(0, 0, 0.05), contype=0, conaffinity=1,
-        friction=(1.0, 0.005, 0.0001),
+        friction=(1.0, 0.005, 0.0001), priority=1, rgba=(0.5, 0.55, 0.6, 1),
     )
 
     for name in joints:
@@ -86,6 +102,8 @@ def build_g1_model(joints: list[str], timestep: float = 0.002, lean_feet: bool =
         )
         spec.add_sensor(name=f"{site_name}_touch", type=mujoco.mjtSensor.mjSENS_TOUCH,
                         objtype=mujoco.mjtObj.mjOBJ_SITE, objname=sole.name)
+    spec.add_sensor(name="com_pos", type=mujoco.mjtSensor.mjSENS_SUBTREECOM, objtype=mujoco.mjtObj.mjOBJ_BODY,
+                    objname="pelvis")
     for name in joints:
         spec.add_sensor(name=f"{name}_torque", type=mujoco.mjtSensor.mjSENS_ACTUATORFRC,
                         objtype=mujoco.mjtObj.mjOBJ_ACTUATOR, objname=name.replace("_joint", ""))

@@ -1,0 +1,90 @@
+"""Typed configuration of the G1 environments: reward terms, pushes, randomisation and the env itself."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+
+@dataclass
+class RewardTerm:
+    func: str
+    """``"module:function"``; called as func(env, **params) -> Tensor[N]."""
+    weight: float
+    group: str = "task"
+    """"task" (preference-invariant) or one of the config's objective names."""
+    params: dict = field(default_factory=dict)
+
+
+@dataclass
+class PushConfig:
+    """Velocity impulses on the pelvis at random intervals; the window after each is the paper's 'after-disturb'."""
+
+    enabled: bool = True
+    interval_s: tuple[float, float] = (3.0, 6.0)
+    velocity: tuple[float, float] = (0.3, 1.0)
+    """Horizontal speed added to the pelvis, m/s, uniform in this range, in a uniformly random direction."""
+    window_s: float = 1.0
+    only_when_standing: bool = False
+    """Count down to the next push only while the robot stands (fall recovery's evaluation pushes the stood-up
+    robot, as in the paper, not the one still on the floor)."""
+
+
+PUSH_PRESETS = {
+    "mild": PushConfig(interval_s=(3.0, 3.0), velocity=(0.5, 0.5)),
+    "strong": PushConfig(interval_s=(3.0, 3.0), velocity=(1.2, 1.2)),
+}
+"""Evaluation pushes: fixed interval and strength."""
+
+
+@dataclass
+class RandomizationConfig:
+    """Physical randomisation: ``num_model_variants`` model copies, each with its own uniform draws of the ranges
+    below, made when the env is built; env i simulates variant i mod num_model_variants for its whole life.
+
+    Variants keep memory bounded (a lean model is about 0.2 MB) whatever the number of envs.
+    """
+
+    enabled: bool = True
+    num_model_variants: int = 64
+    friction: tuple[float, float] = (0.4, 1.2)
+    """Floor sliding friction; the floor's geom priority makes it the contact's friction."""
+    added_base_mass: tuple[float, float] = (-1.0, 3.0)
+    actuator_strength: tuple[float, float] = (0.9, 1.1)
+    """Scale on kp and kd of every actuator."""
+
+
+@dataclass
+class G1EnvConfig:
+    joints: list[str]
+    timestep: float = 0.002
+    decimation: int = 10
+    episode_length_s: float = 10.0
+    num_threads: int = 1
+    action_scale: float = 0.25
+    """eta: q_target = q_default + eta * a."""
+    action_clip: float = 10.0
+    history_length: int = 5
+    amp_window: int = 5
+    """Frames of actuated joint positions in the ``amp`` observation group (the AMP state window)."""
+    observation_noise: float = 1.0
+    """Multiplies the per-quantity noise scales (0 turns noise off)."""
+    command_ranges: dict[str, tuple[float, float]] = field(
+        default_factory=lambda: {"lin_vel_x": (0.0, 0.0), "lin_vel_y": (0.0, 0.0), "ang_vel_z": (0.0, 0.0)}
+    )
+    use_command: bool = False
+    """Whether the policy observes the velocity command (walking)."""
+    initial_joint_noise: float = 0.1
+    push: PushConfig = field(default_factory=PushConfig)
+    randomization: RandomizationConfig = field(default_factory=RandomizationConfig)
+    objective_names: list[str] = field(default_factory=lambda: ["obj_1", "obj_2"])
+    rewards: list[RewardTerm] = field(default_factory=list)
+    preference_concentration: float = 1.0
+    preference_resample_prob: float = 0.0
+    """Per-step probability of re-sampling lambda mid-episode."""
+    termination_height: float = 0.4
+    termination_tilt: float = 0.8
+    """Terminate when the horizontal part of gravity in the base frame exceeds this (|g_xy|, g = 1)."""
+    contact_force_threshold: float = 1.0
+    planted_foot_height: float = 0.03
+    """At a reset, a foot whose sole site is below this height (m) counts as already on the ground: the initial
+    joint noise leaves one foot hovering a few mm, and its settling must not count as a touchdown (a stride)."""

@@ -1,0 +1,31 @@
+"""Per-episode sums of step quantities, turned into the paper's metrics when an episode ends."""
+
+from __future__ import annotations
+
+import torch
+
+
+class EpisodeSums:
+    """Running sums per env of named per-step quantities; reading them has no side effect."""
+
+    def __init__(self, num_envs: int) -> None:
+        self.num_envs = num_envs
+        self.sums: dict[str, torch.Tensor] = {}
+
+    def add(self, values: dict[str, torch.Tensor]) -> None:
+        for key, value in values.items():
+            if key not in self.sums:
+                self.sums[key] = torch.zeros(self.num_envs)
+            self.sums[key] += value
+
+    def get(self, env_ids: torch.Tensor) -> dict[str, torch.Tensor]:
+        return {k: v[env_ids] for k, v in self.sums.items()}
+
+    def reset(self, env_ids: torch.Tensor) -> None:
+        for value in self.sums.values():
+            value[env_ids] = 0.0
+
+
+def ratio(total: torch.Tensor, count: torch.Tensor) -> torch.Tensor:
+    """total / count, NaN where count is 0 (a metric undefined in that episode)."""
+    return torch.where(count > 0, total / count.clamp(min=1), torch.tensor(float("nan")))

@@ -1,0 +1,73 @@
+"""The G1's observation groups: noisy history for the actor, noise-free history plus privileged state for the
+critic (the paper gives both the same 5 past frames and the current one), and the AMP window."""
+
+from __future__ import annotations
+
+import torch
+from tensordict import TensorDict
+
+NOISE_SCALES = {"ang_vel": 0.2, "gravity": 0.05, "joint_pos": 0.01, "joint_vel": 1.5}
+"""Half-widths of the uniform observation noise per quantity, multiplied by ``observation_noise``."""
+
+
+class ObservationBuffers:
+    """Frame histories, newest first: s_t = [angular velocity, gravity in base frame, q - q_default, dq, a_{t-1},
+    eta (, command)]; the AMP window holds the actuated joint positions, oldest first."""
+
+    def __init__(self, num_envs: int, num_joints: int, history_length: int, amp_window: int, use_command: bool,
+                 noise: float, generator: torch.Generator) -> None:
+        self.use_command, self.noise, self.generator = use_command, noise, generator
+        frame_dim = 3 + 3 + 3 * num_joints + 1 + (3 if use_command else 0)
+        self.policy = torch.zeros(num_envs, history_length + 1, frame_dim)
+        self.critic = torch.zeros(num_envs, history_length + 1, frame_dim)
+        self.amp = torch.zeros(num_envs, amp_window, num_joints)
+
+    def frame(self, env, noise: bool = False) -> torch.Tensor:
+        """[N, frame_dim] of the current state; with ``noise``, uniform noise on the measured quantities."""
+        robot = env.robot
+        parts = {
+            "ang_vel": robot.base_ang_vel,
+            "gravity": robot.projected_gravity,
+            "joint_pos": robot.joint_pos - env.default_joint_pos,
+            "joint_vel": robot.joint_vel,
+        }
+        if noise and self.noise > 0:
+            parts = {k: v + self.noise * NOISE_SCALES[k] * (2 * torch.rand(v.shape, generator=self.generator) - 1)
+                     for k, v in parts.items()}
+        frame = [*parts.values(), env.actions, env.action_scale]
+        if self.use_command:
+            frame.append(env.commands)
+        return torch.cat(frame, dim=-1)
+
+    def reset(self, env, env_ids: torch.Tensor) -> None:
+        """Fill the histories of these envs with their current frame (no noise) and joint positions."""
+        frame = self.frame(env)[env_ids].unsqueeze(1)
+        self.policy[env_ids] = frame
+        self.critic[env_ids] = frame
+        self.amp[env_ids] = env.robot.joint_pos[env_ids].unsqueeze(1)
+
+    def push(self, env, amp: bool = True) -> None:
+        """Shift the histories by one step and add the current frame (noisy for the actor); ``amp=False`` when the
+        AMP window was already advanced this step."""
+        self.policy[:, 1:] = self.policy[:, :-1].clone()
+        self.policy[:, 0] = self.frame(env, noise=True)
+        self.critic[:, 1:] = self.critic[:, :-1].clone()
+        self.critic[:, 0] = self.frame(env)
+        if amp:
+            self.push_amp(env)
+
+    def push_amp(self, env) -> None:
+        self.amp[:, :-1] = self.amp[:, 1:].clone()
+        self.amp[:, -1] = env.robot.joint_pos
+
+    def groups(self, env, privileged: torch.Tensor) -> TensorDict:
+        """The observation TensorDict: policy, preference, critic ([history, privileged]) and amp."""
+        return TensorDict(
+            {
+                "policy": self.policy.flatten(1).clone(),
+                "preference": env.preference.clone(),
+                "critic": torch.cat([self.critic.flatten(1), privileged], dim=-1),
+                "amp": self.amp.flatten(1).clone(),
+            },
+            batch_size=[env.num_envs],
+        )

@@ -1,0 +1,118 @@
+"""Pushes: horizontal velocity impulses on the pelvis, and what the paper measures after each.
+
+After a push at position x_last with direction d, the 1 s window is the paper's "after-disturb" period. The
+reference the robot should follow meanwhile is x_ref(t) = x_last + v_ref t, with v_ref the commanded velocity
+turned into the world frame at the push (0 without a command, the paper's equation). Deviation and the velocity
+term of r_disturb are both taken relative to that reference.
+"""
+
+from __future__ import annotations
+
+import math
+
+import torch
+
+from pchc_rsl.envs.g1_config import PushConfig
+from pchc_rsl.envs.g1_robot_state import RobotState, yaw_of
+from pchc_rsl.envs.physics import BatchedMuJoCo
+
+
+class Pushes:
+    def __init__(self, cfg: PushConfig, num_envs: int, dt: float, generator: torch.Generator) -> None:
+        self.cfg, self.dt, self.generator = cfg, dt, generator
+        n = num_envs
+        self.countdown = torch.zeros(n, dtype=torch.long)
+        """Policy steps until the next push."""
+        self.window = torch.zeros(n, dtype=torch.long)
+        """Policy steps left in the after-disturb window."""
+        self.direction = torch.zeros(n, 2)
+        self.origin = torch.zeros(n, 2)
+        self.com_origin = torch.zeros(n, 2)
+        self.ref_vel = torch.zeros(n, 2)
+        self.elapsed = torch.zeros(n)
+        self.max_deviation = torch.zeros(n)
+        """Largest base deviation from the reference in the current window, m."""
+        self.max_com_deviation = torch.zeros(n)
+        """Largest whole-body COM deviation from the reference in the current window, m."""
+
+    def _uniform(self, n: int, low: float, high: float) -> torch.Tensor:
+        return low + (high - low) * torch.rand(n, generator=self.generator)
+
+    def _interval(self, n: int) -> torch.Tensor:
+        return (self._uniform(n, *self.cfg.interval_s) / self.dt).long().clamp(min=1)
+
+    def reset(self, env_ids: torch.Tensor) -> None:
+        self.countdown[env_ids] = self._interval(len(env_ids))
+        self.window[env_ids] = 0
+        self.max_deviation[env_ids] = 0.0
+        self.max_com_deviation[env_ids] = 0.0
+
+    @property
+    def active(self) -> torch.Tensor:
+        """[N] bool: inside the window after a push (the paper's I_after-disturb)."""
+        return self.window > 0
+
+    def apply(self, physics: BatchedMuJoCo, robot: RobotState, commands: torch.Tensor,
+              eligible: torch.Tensor | None = None) -> None:
+        """Count down (only where ``eligible``), push the envs whose countdown ran out; record d, x_last, v_ref."""
+        if not self.cfg.enabled:
+            return
+        counting = torch.ones_like(self.active) if eligible is None else eligible
+        self.countdown -= counting.long()
+        ids = ((self.countdown <= 0) & counting).nonzero(as_tuple=False).squeeze(-1)
+        if len(ids) == 0:
+            return
+        n = len(ids)
+        angle = self._uniform(n, 0.0, 2 * math.pi)
+        direction = torch.stack([angle.cos(), angle.sin()], -1)
+        speed = self._uniform(n, *self.cfg.velocity)
+        rows = ids.numpy()
+        physics.state[rows, physics.qvel_slice.start : physics.qvel_slice.start + 2] += (
+            (speed.unsqueeze(-1) * direction).double().numpy()
+        )
+        self.direction[ids] = direction
+        self.origin[ids] = robot.base_pos[ids, :2]
+        self.com_origin[ids] = robot.com_pos[ids, :2]
+        yaw = yaw_of(robot.base_quat[ids])
+        cmd = commands[ids, :2]
+        self.ref_vel[ids] = torch.stack(
+            [yaw.cos() * cmd[:, 0] - yaw.sin() * cmd[:, 1], yaw.sin() * cmd[:, 0] + yaw.cos() * cmd[:, 1]], -1
+        )
+        self.elapsed[ids] = 0.0
+        self.max_deviation[ids] = 0.0
+        self.max_com_deviation[ids] = 0.0
+        self.window[ids] = int(round(self.cfg.window_s / self.dt))
+        self.countdown[ids] = self._interval(n)
+
+    def reference_offset(self) -> torch.Tensor:
+        """[N, 2] v_ref t: how far the reference moved since the push."""
+        return self.ref_vel * self.elapsed.unsqueeze(-1)
+
+    def deviation(self, robot: RobotState) -> torch.Tensor:
+        """[N, 2] base position minus the reference x_last + v_ref t."""
+        return robot.base_pos[:, :2] - (self.origin + self.reference_offset())
+
+    def com_deviation(self, robot: RobotState) -> torch.Tensor:
+        """[N, 2] whole-body COM minus its reference."""
+        return robot.com_pos[:, :2] - (self.com_origin + self.reference_offset())
+
+    def relative_velocity_along_push(self, robot: RobotState) -> torch.Tensor:
+        """[N] |(v_base - v_ref) . d|: motion along the push relative to the reference, m/s."""
+        return ((robot.base_lin_vel_w[:, :2] - self.ref_vel) * self.direction).sum(-1).abs()
+
+    def track(self, robot: RobotState) -> None:
+        """After the physics step: advance the reference and keep the largest deviations inside the window."""
+        self.elapsed += self.dt
+        inside = self.active
+        self.max_deviation = torch.where(
+            inside, torch.maximum(self.max_deviation, self.deviation(robot).norm(dim=-1)), self.max_deviation)
+        self.max_com_deviation = torch.where(
+            inside, torch.maximum(self.max_com_deviation, self.com_deviation(robot).norm(dim=-1)),
+            self.max_com_deviation)
+
+    def closing(self) -> torch.Tensor:
+        """[N] bool: windows that end with this step."""
+        return self.window == 1
+
+    def advance_window(self) -> None:
+        self.window = (self.window - 1).clamp(min=0)
