@@ -31,22 +31,24 @@ class TaskEvaluation:
     """Hypervolume reference point in the signed front coordinates (stated with every figure)."""
     push_presets: list[str] = field(default_factory=lambda: ["mild"])
     command: tuple[float, float, float] | None = None
+    push_only_when_standing: bool = False
+    """Push the robot once it stands (fall recovery), not while it is still on the floor."""
 
 
 WALK_EVALUATION = TaskEvaluation(
     table="Table II (walking)",
     columns={"stride_length": "Avg. Stride (m)", "push_deviation": "Traj. Deviation (m)", "fall_rate": "Falls (%)"},
-    front=(("stride_length", 1.0), ("push_deviation", -1.0)),
-    reference_point=(0.0, -2.0),
+    front=(("push_deviation", -1.0), ("stride_length", 1.0)),
+    reference_point=(-2.0, 0.0),
     push_presets=["mild"],
     command=(0.5, 0.0, 0.0),
 )
 FALL_RECOVERY_EVALUATION = TaskEvaluation(
     table="Table I (fall recovery)",
     columns={
-        "energy_overall": "Avg. Energy Overall (J)",
-        "energy_recovery": "Avg. Energy Fall Recovery (J)",
-        "energy_standing": "Avg. Energy Recovery (J)",
+        "energy_overall": "Avg. Energy Overall (J/s)",
+        "energy_recovery": "Avg. Energy Fall Recovery (J/s)",
+        "energy_standing": "Avg. Energy Recovery (J/s)",
         "torque_overall": "Avg. Torque Overall (Nm)",
         "torque_recovery": "Avg. Torque Fall Recovery (Nm)",
         "torque_standing": "Avg. Torque Recovery (Nm)",
@@ -56,6 +58,7 @@ FALL_RECOVERY_EVALUATION = TaskEvaluation(
     front=(("energy_overall", -1.0), ("mild/com_displacement", -1.0)),
     reference_point=(-3000.0, -3.0),
     push_presets=["mild", "strong"],
+    push_only_when_standing=True,
 )
 TASK_EVALUATION = {
     "g1-walk": WALK_EVALUATION,
@@ -82,6 +85,7 @@ def evaluation_preset(cfg, push_preset: str, evaluation: TaskEvaluation):
     env.observation_noise = 0.0
     env.preference_resample_prob = 0.0
     env.push = copy.deepcopy(PUSH_PRESETS[push_preset])
+    env.push.only_when_standing = evaluation.push_only_when_standing
     if hasattr(env, "curriculum"):
         env.curriculum = False
     if evaluation.command is not None:
@@ -90,19 +94,45 @@ def evaluation_preset(cfg, push_preset: str, evaluation: TaskEvaluation):
     return cfg
 
 
-def aggregate(episodes: list[dict[str, float]]) -> dict[str, float]:
-    """Mean of each metric over episodes, ignoring NaN (a metric undefined in an episode, e.g. no push);
-    'success' and 'fell' become percentages."""
+RATE_METRICS = {"success": "success", "fell": "fall_rate"}
+"""Per-episode 0/1 outcomes reported as percentages (metric key -> reported key)."""
+Z95 = 1.959963984540054
+
+
+def aggregate(episodes: list[dict[str, float]]) -> dict:
+    """Mean of each metric over episodes, ignoring NaN (a metric undefined in an episode, e.g. no push), with its
+    95% interval under ``KEY_ci95`` ([low, high]): Student's t for measured quantities, Wilson's score interval for
+    the 0/1 outcomes 'success' and 'fell', which become percentages ('fell' is reported as 'fall_rate')."""
     keys = sorted({k for e in episodes for k in e})
-    out = {}
+    out: dict = {}
     for key in keys:
         values = np.array([e[key] for e in episodes if key in e], dtype=float)
         values = values[~np.isnan(values)]
-        mean = float(values.mean()) if len(values) else float("nan")
-        if key in ("success", "fell"):
-            mean *= 100.0
-        out["fall_rate" if key == "fell" else key] = mean
+        n = len(values)
+        mean = float(values.mean()) if n else float("nan")
+        if key in RATE_METRICS:
+            interval = [100.0 * x for x in wilson_interval(mean, n)]
+            key, mean = RATE_METRICS[key], 100.0 * mean
+        elif n >= 2:
+            from scipy import stats
+
+            half = float(stats.t.ppf(0.975, n - 1) * values.std(ddof=1) / math.sqrt(n))
+            interval = [mean - half, mean + half]
+        else:
+            interval = [float("nan"), float("nan")]
+        out[key] = mean
+        out[f"{key}_ci95"] = interval
     return out
+
+
+def wilson_interval(p: float, n: int) -> tuple[float, float]:
+    """95% Wilson score interval of a proportion p observed in n trials (stays inside [0, 1], also at 0 or 1)."""
+    if n == 0 or p != p:
+        return float("nan"), float("nan")
+    z2 = Z95 * Z95
+    centre = (p + z2 / (2 * n)) / (1 + z2 / n)
+    half = Z95 * math.sqrt(p * (1 - p) / n + z2 / (4 * n * n)) / (1 + z2 / n)
+    return centre - half, centre + half
 
 
 def run_episodes(env, policy, preference, episodes: int, progress: str = "") -> tuple[list[dict], np.ndarray]:
@@ -116,7 +146,7 @@ def run_episodes(env, policy, preference, episodes: int, progress: str = "") -> 
     total = episodes * env.max_episode_length
     with torch.inference_mode():  # the env's buffers are inference tensors once stepped in this mode
         env.set_preference(preference)
-        env._reset(torch.arange(env.num_envs))
+        env.reset()
         obs = env.get_observations()
         while (finished < episodes).any():
             obs, _, _, extras = env.step(policy(obs))
@@ -166,19 +196,27 @@ def front_summary(points: np.ndarray, evaluation: TaskEvaluation) -> dict:
 
 
 def markdown_table(results: list[dict], evaluation: TaskEvaluation) -> str:
-    """The paper's table: one row per (checkpoint, preference)."""
-    header = ["Policy", "Preference", *evaluation.columns.values()]
-    lines = [f"{evaluation.table}", "", "| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    """The paper's table: one row per (checkpoint, preference), each figure with its 95% interval."""
+    header = ["Policy", "Preference", *evaluation.columns.values(), "Episodes"]
+    lines = [f"{evaluation.table}; mean ± 95% interval half-width (t), rates with the Wilson 95% interval", "",
+             "| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     for result in results:
         for row in result["rows"]:
             lam = "(" + ", ".join(f"{x:.2f}" for x in row["preference"]) + ")"
-            cells = [_fmt(row["metrics"].get(key, math.nan)) for key in evaluation.columns]
-            lines.append("| " + " | ".join([result["name"], lam, *cells]) + " |")
+            metrics = row["metrics"]
+            cells = [_fmt(metrics.get(key, math.nan), metrics.get(f"{key}_ci95"), key) for key in evaluation.columns]
+            lines.append("| " + " | ".join([result["name"], lam, *cells, str(row.get("episodes", ""))]) + " |")
     return "\n".join(lines) + "\n"
 
 
-def _fmt(value: float) -> str:
-    return "n/a" if value != value else f"{value:.2f}"
+def _fmt(value: float, interval: list[float] | None = None, key: str = "") -> str:
+    if value != value:
+        return "n/a"
+    if not interval or interval[0] != interval[0]:
+        return f"{value:.2f}"
+    if key.endswith(("success", "fall_rate")):
+        return f"{value:.1f} [{interval[0]:.1f}, {interval[1]:.1f}]"
+    return f"{value:.2f} ± {(interval[1] - interval[0]) / 2:.2f}"
 
 
 def switching_run(env, policy, before, after, switch_step: int) -> dict:
@@ -188,7 +226,7 @@ def switching_run(env, policy, before, after, switch_step: int) -> dict:
     curve, falls = [], 0
     with torch.inference_mode():
         env.set_preference(before)
-        env._reset(torch.arange(env.num_envs))
+        env.reset()
         obs = env.get_observations()
         for step in range(env.max_episode_length - 1):
             if step == switch_step:

@@ -22,9 +22,27 @@ def test_aggregate_by_hand():
     assert out["success"] == pytest.approx(100.0)
 
 
+def test_aggregate_gives_95_percent_intervals():
+    from scipy import stats
+
+    rng = np.random.default_rng(0)
+    strides = rng.normal(0.3, 0.05, size=40)
+    falls = np.r_[np.ones(4), np.zeros(36)]
+    out = aggregate([{"stride_length": s, "fell": f} for s, f in zip(strides, falls)])
+    low, high = out["stride_length_ci95"]
+    t_low, t_high = stats.t.interval(0.95, len(strides) - 1, loc=strides.mean(), scale=stats.sem(strides))
+    assert low == pytest.approx(t_low, rel=1e-6) and high == pytest.approx(t_high, rel=1e-6)
+    # falls: the Wilson score interval of 4 / 40, in percent
+    z, p, n = stats.norm.ppf(0.975), 0.1, 40
+    centre, half = (p + z * z / (2 * n)) / (1 + z * z / n), z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+    assert out["fall_rate_ci95"] == pytest.approx([100 * (centre - half), 100 * (centre + half)], rel=1e-6)
+    assert out["fall_rate"] == pytest.approx(10.0)
+
+
 def test_front_summary_by_hand():
-    # stride (more is better) and -deviation; reference (0, -2): boxes 0.4 x 1.8 and 0.6 x 1.5 overlap 0.4 x 1.5
-    points = np.array([[0.4, -0.2], [0.6, -0.5], [0.3, -0.6]])  # the last is dominated
+    # -deviation and stride (more is better), the paper's order; reference (-2, 0): boxes 1.8 x 0.4 and 1.5 x 0.6
+    # overlap 1.5 x 0.4
+    points = np.array([[-0.2, 0.4], [-0.5, 0.6], [-0.6, 0.3]])  # the last is dominated
     summary = front_summary(points, WALK_EVALUATION)
     assert summary["num_points"] == 2
     assert summary["hypervolume"] == pytest.approx(0.4 * 1.8 + 0.6 * 1.5 - 0.4 * 1.5)
@@ -34,7 +52,7 @@ def test_front_summary_by_hand():
 
 @pytest.mark.parametrize("task, columns", [
     ("g1-walk-fast", ["Avg. Stride (m)", "Traj. Deviation (m)"]),
-    ("g1-fall-recovery-fast", ["Avg. Energy Overall (J)", "COM displacement (m)", "Success rate (%)"]),
+    ("g1-fall-recovery-fast", ["Avg. Energy Overall (J/s)", "COM displacement (m)", "Success rate (%)"]),
 ])
 def test_eval_cli_writes_the_tables_and_plots(tmp_path, task, columns):
     from pchc_rsl.cli import eval as eval_cli

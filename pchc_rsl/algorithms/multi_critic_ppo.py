@@ -111,7 +111,10 @@ class MultiCriticPPO(PPO):
             )
         self.transition.rewards = groups.clone()
         if self.amp is not None:
-            self.transition.rewards[:, 0] += self.amp.reward(obs).to(self.device)  # style is preference-invariant
+            # style is preference-invariant: task group. On a terminal step obs already holds the next episode's
+            # first window; an env that provides extras["amp_observations"] gives the window that was just lived.
+            windows = extras.get("amp_observations", obs[self.amp.obs_group])
+            self.transition.rewards[:, 0] += self.amp.reward(windows.to(self.device)).to(self.device)
         self.transition.dones = dones
         if self.rnd:
             self.intrinsic_rewards = self.rnd.get_intrinsic_reward(obs)

@@ -46,9 +46,8 @@ class AMPStyle:
         self.obs_group = obs_group
         print(f"AMP: {len(clips)} clip(s), {self.reference.num_windows} reference windows, c = {style_reward_scale}")
 
-    def reward(self, obs) -> torch.Tensor:
-        """[N] style reward of the policy windows in ``obs``; the windows are kept for the discriminator."""
-        windows = obs[self.obs_group]
+    def reward(self, windows: torch.Tensor) -> torch.Tensor:
+        """[N] style reward of the policy windows [N, window * joints]; they are kept for the discriminator."""
         self.replay.insert(windows)
         return self.discriminator.style_reward(windows, self.scale)
 
