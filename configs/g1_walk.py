@@ -1,4 +1,4 @@
-"""G1 walking: stride length vs disturbance resistance (the paper's Table II task)."""
+"""G1 walking: disturbance resistance vs stride length (the paper's Table II task, in its order)."""
 
 from __future__ import annotations
 
@@ -24,8 +24,8 @@ def walk_rewards() -> list[RewardTerm]:
         RewardTerm(R + "torques", -1e-5),
         RewardTerm(R + "action_rate", -0.01),
         RewardTerm(R + "alive", 1.0),
-        RewardTerm(R + "stride", 1.0, group="stride"),
         RewardTerm(R + "disturbance", 1.0, group="disturbance"),
+        RewardTerm(R + "stride", 1.0, group="stride"),
     ]
 
 
@@ -37,7 +37,7 @@ def walk_env(fast: bool = False) -> G1EnvConfig:
         decimation=4 if fast else 10,
         use_command=True,
         command_ranges={"lin_vel_x": (0.0, 1.0), "lin_vel_y": (0.0, 0.0), "ang_vel_z": (0.0, 0.0)},
-        objective_names=["stride", "disturbance"],
+        objective_names=["disturbance", "stride"],  # Table II's order: lambda = (0, 1) prioritises stride
         rewards=walk_rewards(),
         termination_height=0.45,
     )
