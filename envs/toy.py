@@ -71,6 +71,17 @@ class ToyEnv(VecEnv):
         self.episode_sums[env_ids] = 0.0
         self.preferences.resample(env_ids)
 
+    def state_dict(self) -> dict:
+        """Everything that evolves: a resumed run continues exactly where the checkpoint was written."""
+        return {"generator": self.generator.get_state(), "pos": self.pos.clone(), "frames": self.frames.clone(),
+                "episode_length_buf": self.episode_length_buf.clone(), "episode_sums": self.episode_sums.clone(),
+                "preference": self.preference.clone()}
+
+    def load_state_dict(self, state: dict) -> None:
+        self.generator.set_state(state["generator"])
+        for key in ("pos", "frames", "episode_length_buf", "episode_sums", "preference"):
+            getattr(self, key).copy_(state[key])
+
     def get_observations(self) -> TensorDict:
         time_left = 1.0 - self.episode_length_buf.float().unsqueeze(1) / self.max_episode_length
         return TensorDict(

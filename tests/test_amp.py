@@ -390,3 +390,18 @@ def test_real_g1_clips_load_at_50_fps():
         np.testing.assert_allclose(clip[0].numpy(), joints[0, columns], atol=1e-5)
     windows = MotionWindows(clips, window=5).sample(64, generator=torch.Generator().manual_seed(0))
     assert windows.shape == (64, 100) and torch.isfinite(windows).all()
+
+
+def test_replay_buffer_state_round_trips_into_a_fresh_buffer():
+    buffer = ReplayBuffer(capacity=5, dim=2)
+    rows = torch.arange(14.0).reshape(7, 2)
+    buffer.insert(rows[:3])
+    buffer.insert(rows[3:])  # wraps around: 7 rows written into 5, next write at row 2
+    fresh = ReplayBuffer(capacity=5, dim=2)
+    fresh.load_state_dict(buffer.state_dict())
+    assert len(fresh) == 5 and fresh.position == 2
+    torch.testing.assert_close(fresh.data, buffer.data)
+    fresh.insert(torch.tensor([[100.0, 101.0]]))
+    assert fresh.data[2].tolist() == [100.0, 101.0]  # the oldest row is overwritten, as in the original
+    with pytest.raises(ValueError, match="does not fit"):
+        ReplayBuffer(capacity=3, dim=2).load_state_dict(buffer.state_dict())

@@ -119,6 +119,18 @@ class ReplayBuffer:
         self.position = (self.position + x.shape[0]) % self.capacity
         self.size = min(self.size + x.shape[0], self.capacity)
 
+    def state_dict(self) -> dict:
+        """The filled rows and the write position: a resumed run replays what it had collected."""
+        return {"data": self.data[: self.size].clone(), "position": self.position, "size": self.size}
+
+    def load_state_dict(self, state: dict) -> None:
+        size = int(state["size"])
+        if state["data"].shape != (size, self.dim) or size > self.capacity:
+            raise ValueError(f"Replay buffer state of {list(state['data'].shape)} windows does not fit capacity "
+                             f"{self.capacity} x dim {self.dim}.")
+        self.data[:size] = state["data"].to(self.device)
+        self.position, self.size = int(state["position"]), size
+
     def sample(self, n: int, generator: torch.Generator | None = None) -> torch.Tensor:
         """n stored windows drawn uniformly with replacement, [n, dim]."""
         if self.size == 0:

@@ -69,8 +69,11 @@ class AMPStyle:
         return stats
 
     def state_dict(self) -> dict:
-        return {"discriminator": self.discriminator.state_dict(), "optimizer": self.optimizer.state_dict()}
+        return {"discriminator": self.discriminator.state_dict(), "optimizer": self.optimizer.state_dict(),
+                "replay": self.replay.state_dict()}
 
     def load_state_dict(self, state: dict) -> None:
         self.discriminator.load_state_dict(state["discriminator"])
         self.optimizer.load_state_dict(state["optimizer"])
+        if "replay" in state:  # checkpoints from before the replay buffer was saved start with an empty one
+            self.replay.load_state_dict(state["replay"])
