@@ -171,7 +171,7 @@ def train(cfg, config: dict, log_dir: str, args) -> None:
     except NonFiniteTraining as stop:
         remove_if_unused(log_dir, created)
         raise SystemExit(f"{PROG}: {stop}") from None
-    except (ValueError, FileNotFoundError, FileExistsError) as error:
+    except (ValueError, FileNotFoundError, FileExistsError, ImportError) as error:
         remove_if_unused(log_dir, created)
         if args.verbose:
             raise
