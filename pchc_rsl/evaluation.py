@@ -61,8 +61,8 @@ FALL_RECOVERY_EVALUATION = TaskEvaluation(
     push_presets=["mild", "strong"],
 )
 TOY_EVALUATION = TaskEvaluation(
-    table="Toy task (two goals): undiscounted episode returns",
-    columns={"goal_a": "Return goal A", "goal_b": "Return goal B"},
+    table="Toy task (two goals)",
+    columns={"goal_a": "Return goal A (undiscounted)", "goal_b": "Return goal B (undiscounted)"},
     front=(("goal_a", 1.0), ("goal_b", 1.0)),
     reference_point=(-60.0, -60.0),
     push_presets=[],

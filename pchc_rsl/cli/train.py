@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import datetime
 import os
+import re
 import shlex
 import sys
 import time
@@ -14,6 +15,7 @@ from pchc_rsl.configs import ACTOR_CLASSES, TASKS
 from pchc_rsl.configs.base import LOGGERS
 
 PROG = "pchc-train"
+OVERRIDE_SHAPE = re.compile(r"^[A-Za-z_][\w.]*=")
 
 
 def build_parser(task_help: str = "") -> argparse.ArgumentParser:
@@ -54,6 +56,7 @@ def build_parser(task_help: str = "") -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> None:
     argv = sys.argv[1:] if argv is None else list(argv)
     args = build_parser(_task_help(argv)).parse_args(argv)
+    _take_overrides_from_motion_files(args)
     from pchc_rsl.cli.run_folder import new_run_folder
 
     try:
@@ -133,7 +136,7 @@ def resolve(args) -> tuple:
         notes.append(f"continuing {args.resume} with its config" + (f"; overridden: {shown}" if shown else ""))
     amp = cfg.runner.algorithm.amp_cfg
     if amp is not None and not amp.motion_files:
-        notes.append("AMP style reward off (no --motion-files; see the README's AMP section).")
+        notes.append("AMP is off: no --motion-files given (see the README's AMP section).")
     config = cfg.to_dict()
     # what differs from the task's defaults (resuming: from the checkpoint's config), as KEY=VALUE
     config["overrides"] = [f"{k}={_show(after[k])}" for k in changed]
@@ -214,6 +217,15 @@ def _task_help(argv: list[str]) -> str:
     from pchc_rsl.configs import task_config
 
     return f"config of task {known.task} (set any with KEY=VALUE):\n" + format_config(task_config(known.task))
+
+
+def _take_overrides_from_motion_files(args) -> None:
+    """``--motion-files a.csv KEY=VALUE``: argparse gives every word to --motion-files; a word shaped like an
+    override (a dotted name, '=', no '/') is one."""
+    if args.motion_files:
+        words = args.motion_files
+        args.motion_files = [w for w in words if not OVERRIDE_SHAPE.match(w)]
+        args.overrides = [w for w in words if OVERRIDE_SHAPE.match(w)] + list(args.overrides)
 
 
 def _show(value) -> str:
