@@ -256,3 +256,18 @@ def test_loggers_map_to_rsl_rl_log_writers(logger, writer):
         assert chosen == "tensorboard"
     else:
         assert resolve_callable(chosen["class_name"]).__name__ == writer and chosen["project_name"] == "pchc"
+
+
+def test_the_runner_never_replaces_a_checkpoint_it_did_not_write(gated_run, tmp_path):
+    from pchc_rsl.cli.common import make_runner
+    from pchc_rsl.configs import task_config
+
+    with pytest.raises(FileExistsError, match="already holds checkpoints"):
+        make_runner(task_config("toy"), str(gated_run))
+    cfg = task_config("toy")
+    cfg.num_envs = 4
+    runner = make_runner(cfg, str(tmp_path / "run"))
+    (tmp_path / "run" / "model_0.pt").write_bytes(b"someone else's")
+    with pytest.raises(FileExistsError, match="never replaced"):
+        runner.learn(1)
+    assert (tmp_path / "run" / "model_0.pt").read_bytes() == b"someone else's"

@@ -4,6 +4,7 @@ and the tests."""
 from __future__ import annotations
 
 import contextlib
+import glob
 import io
 import json
 import os
@@ -30,8 +31,11 @@ def make_env(cfg: TaskConfig):
 def make_runner(cfg: TaskConfig, log_dir: str | None = None, verbose: bool = False,
                 config: dict | None = None) -> PCHCRunner:
     """Seed torch, build the env and a PCHCRunner; with a log_dir, write the config there as config.json once both
-    were built. ``config`` (default ``cfg.to_dict()``) is what checkpoints carry. Construction prints (the models,
+    were built (a folder that already holds checkpoints is refused). ``config`` (default ``cfg.to_dict()``) is what
+    checkpoints carry. Construction prints (the models,
     the observation sets) only with ``verbose``."""
+    if log_dir is not None and glob.glob(os.path.join(log_dir, "model_*.pt")):
+        raise FileExistsError(f"{log_dir} already holds checkpoints of another run; give a new folder.")
     torch.manual_seed(cfg.seed)
     config = config if config is not None else cfg.to_dict()
     with contextlib.nullcontext() if verbose else contextlib.redirect_stdout(io.StringIO()):
