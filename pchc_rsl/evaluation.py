@@ -29,11 +29,11 @@ class TaskEvaluation:
     """The two objective metrics of the Pareto plot, each with the sign that makes it 'more is better'."""
     reference_point: tuple[float, float]
     """Hypervolume reference point in the signed front coordinates (stated with every figure)."""
-    push_presets: list[str] = field(default_factory=lambda: ["mild"])
-    command: tuple[float, float, float] | None = None
     episode_returns: bool = False
     """Measure each objective's undiscounted episode return (run_return_episodes) instead of the env's
     episode_metrics, with the task's config as it is (no evaluation preset): for envs without task metrics."""
+    push_presets: list[str] = field(default_factory=lambda: ["mild"])
+    command: tuple[float, float, float] | None = None
 
 
 WALK_EVALUATION = TaskEvaluation(
@@ -233,7 +233,7 @@ def run_return_episodes(env, policy, preference, episodes: int, progress: str = 
     results, curve = [], []
     with torch.inference_mode():
         env.set_preference(preference)
-        env._reset(torch.arange(env.num_envs))
+        _reset_all(env)
         obs = env.get_observations()
         steps = 0
         while (finished < episodes).any():
@@ -251,3 +251,11 @@ def run_return_episodes(env, policy, preference, episodes: int, progress: str = 
     if progress:
         _progress(progress, 1, 1, end=True)
     return results, np.array(curve)
+
+
+def _reset_all(env) -> None:
+    """Reset every env: the public ``reset()`` where the env has one, else the older ``_reset(env_ids)``."""
+    if hasattr(env, "_reset"):
+        env._reset(torch.arange(env.num_envs))
+    else:
+        env.reset()

@@ -34,7 +34,7 @@ def returns_by_hand(checkpoint, preferences, num_envs, seed):
         sums = torch.zeros(2)
         with torch.inference_mode():
             env.set_preference(preference)
-            env._reset(torch.arange(env.num_envs))
+            env.reset() if not hasattr(env, "_reset") else env._reset(torch.arange(env.num_envs))
             obs = env.get_observations()
             for _ in range(env.max_episode_length):
                 obs, _, _, extras = env.step(policy(obs))
