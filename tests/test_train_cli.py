@@ -271,3 +271,13 @@ def test_the_runner_never_replaces_a_checkpoint_it_did_not_write(gated_run, tmp_
     with pytest.raises(FileExistsError, match="never replaced"):
         runner.learn(1)
     assert (tmp_path / "run" / "model_0.pt").read_bytes() == b"someone else's"
+
+
+def test_overrides_record_every_change_including_in_place_ones(tmp_path):
+    run = tmp_path / "run"
+    train_cli.main([*SMALL, "--max-iterations", "1", "--actor", "no-preference", "--fixed-preference", "0.5,0.5",
+                    "--log-dir", str(run)])
+    overrides = json.loads((run / "config.json").read_text())["overrides"]
+    assert 'runner.obs_groups.actor=["policy"]' in overrides
+    assert 'runner.actor.class_name="rsl_rl.models:MLPModel"' in overrides
+    assert "fixed_preference=[0.5, 0.5]" in overrides

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import copy
 import datetime
 import os
 import re
@@ -96,7 +97,7 @@ def resolve(args) -> tuple:
         raise ValueError("give --task TASK (one of " + ", ".join(sorted(TASKS)) + ") or --resume CKPT.")
     else:
         cfg = task_config(args.task)
-    before = {k: v[3] for k, v in config_fields(cfg, aliases=False).items()}
+    before = copy.deepcopy({k: v[3] for k, v in config_fields(cfg, aliases=False).items()})
 
     flags = []
     for flag, key in (("num_envs", "num_envs"), ("max_iterations", "runner.max_iterations"), ("seed", "seed"),
