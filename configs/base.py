@@ -19,6 +19,15 @@ ACTOR_CLASSES = {
 and rsl-rl's MLP without the preference input (the prior work's single fixed weighting; needs a fixed preference)."""
 
 
+LOGGERS = {
+    "tensorboard": None,
+    "wandb": "rsl_rl.utils.wandb_log_writer:WandbLogWriter",
+    "neptune": "rsl_rl.utils.neptune_log_writer:NeptuneLogWriter",
+}
+"""The training loggers rsl-rl's Logger supports: TensorBoard (built in), Weights & Biases and Neptune (their
+LogWriters; need ``pip install wandb`` or ``neptune``)."""
+
+
 @dataclass
 class AMPConfig:
     """The AMP style reward (see pchc_rsl.amp.style.AMPStyle); off when there are no motion files."""
@@ -122,6 +131,10 @@ class RunnerConfig:
     algorithm: AlgorithmConfig = field(default_factory=AlgorithmConfig)
     actor: ModelConfig = field(default_factory=default_actor)
     critic: ModelConfig = field(default_factory=default_critic)
+    logger: str = "tensorboard"
+    """Where training scalars go: one of LOGGERS (rsl-rl's writers; wandb and neptune also write TensorBoard)."""
+    logger_project: str | None = None
+    """The W&B or Neptune project (default: experiment_name)."""
 
     def to_rsl_rl(self) -> dict:
         """The train_cfg dict OnPolicyRunner expects."""
@@ -132,9 +145,17 @@ class RunnerConfig:
             "algorithm": dataclasses.asdict(self.algorithm),
             "actor": self.actor.to_dict(),
             "critic": self.critic.to_dict(),
-            "logger": "tensorboard",
+            "logger": self.logger_cfg(),
             "experiment_name": self.experiment_name,
         }
+
+    def logger_cfg(self) -> str | dict:
+        """rsl-rl's ``cfg["logger"]``: "tensorboard", or the dict form naming a LogWriter and its project."""
+        if self.logger not in LOGGERS:
+            raise ValueError(f"Unknown logger '{self.logger}'; choose one of {', '.join(LOGGERS)}.")
+        if LOGGERS[self.logger] is None:
+            return self.logger
+        return {"class_name": LOGGERS[self.logger], "project_name": self.logger_project or self.experiment_name}
 
 
 @dataclass

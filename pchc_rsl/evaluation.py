@@ -29,6 +29,9 @@ class TaskEvaluation:
     """The two objective metrics of the Pareto plot, each with the sign that makes it 'more is better'."""
     reference_point: tuple[float, float]
     """Hypervolume reference point in the signed front coordinates (stated with every figure)."""
+    episode_returns: bool = False
+    """Measure each objective's undiscounted episode return (run_return_episodes) instead of the env's
+    episode_metrics, with the task's config as it is (no evaluation preset): for envs without task metrics."""
     push_presets: list[str] = field(default_factory=lambda: ["mild"])
     command: tuple[float, float, float] | None = None
     push_only_when_standing: bool = False
@@ -60,7 +63,16 @@ FALL_RECOVERY_EVALUATION = TaskEvaluation(
     push_presets=["mild", "strong"],
     push_only_when_standing=True,
 )
+TOY_EVALUATION = TaskEvaluation(
+    table="Toy task (two goals)",
+    columns={"goal_a": "Return goal A (undiscounted)", "goal_b": "Return goal B (undiscounted)"},
+    front=(("goal_a", 1.0), ("goal_b", 1.0)),
+    reference_point=(-60.0, -60.0),
+    push_presets=[],
+    episode_returns=True,
+)
 TASK_EVALUATION = {
+    "toy": TOY_EVALUATION,
     "g1-walk": WALK_EVALUATION,
     "g1-walk-fast": WALK_EVALUATION,
     "g1-fall-recovery": FALL_RECOVERY_EVALUATION,
@@ -248,3 +260,40 @@ def switching_run(env, policy, before, after, switch_step: int) -> dict:
             break
     return {"curve": curve, "falls": falls, "settle_time_s": (settle_step - switch_step) * dt, "dt": dt,
             "switch_step": switch_step}
+
+
+def run_return_episodes(env, policy, preference, episodes: int, progress: str = "") -> tuple[list[dict], np.ndarray]:
+    """Like run_episodes, for an env without episode_metrics: each finished episode's undiscounted return of every
+    objective (summed from extras["reward_groups"]), keyed by ``env.cfg.objective_names``."""
+    names = list(env.cfg.objective_names)
+    finished = torch.zeros(env.num_envs, dtype=torch.long)
+    sums = torch.zeros(env.num_envs, len(names))
+    results, curve = [], []
+    with torch.inference_mode():
+        env.set_preference(preference)
+        _reset_all(env)
+        obs = env.get_observations()
+        steps = 0
+        while (finished < episodes).any():
+            obs, _, dones, extras = env.step(policy(obs))
+            groups = extras["reward_groups"]
+            if steps < env.max_episode_length:
+                curve.append(groups.mean(0).numpy())
+            steps += 1
+            sums += groups[:, 1:]
+            for env_id in dones.nonzero(as_tuple=False).flatten().tolist():
+                if finished[env_id] < episodes:
+                    results.append({name: float(sums[env_id, i]) for i, name in enumerate(names)})
+                    finished[env_id] += 1
+            sums[dones.bool()] = 0.0
+    if progress:
+        _progress(progress, 1, 1, end=True)
+    return results, np.array(curve)
+
+
+def _reset_all(env) -> None:
+    """Reset every env: the public ``reset()`` where the env has one, else the older ``_reset(env_ids)``."""
+    if hasattr(env, "_reset"):
+        env._reset(torch.arange(env.num_envs))
+    else:
+        env.reset()

@@ -1,60 +1,80 @@
 """ONNX export of a preference-conditioned policy with two named inputs, and a checked onnxruntime wrapper.
 
 rsl-rl's own exporter fixes the batch at 1 and has a single input; a deployed PCHC policy is steered through its
-``preference`` input, so it gets its own input with a dynamic batch.
+``preference`` input, so it gets its own input with a dynamic batch. The weights are stored inside the .onnx file
+(a robot gets one file to copy), which ONNX allows up to 2 GB: far more than any policy here.
 """
 
 from __future__ import annotations
 
-import os
-import tempfile
+import contextlib
+import io
+import logging
+import warnings
 
 import numpy as np
 import torch
 
-from pchc_rsl.preference import validate_preference
+from pchc_rsl.files import atomic_write
+from pchc_rsl.finite import first_non_finite_module_tensor
+from pchc_rsl.preference import SUM_TOLERANCE, validate_preference
 
 OPSET = 18
 
 
-def export_onnx(policy: torch.nn.Module, path: str, check: bool = True, atol: float = 1e-5) -> str:
+def export_onnx(
+    policy: torch.nn.Module, path: str, check: bool = True, atol: float = 1e-5, verbose: bool = False
+) -> str:
     """Export ``policy.as_onnx()`` to ``path`` with inputs ``obs`` [B, obs_dim], ``preference`` [B, m] and output
-    ``actions`` [B, A], B dynamic. With ``check``, onnxruntime must match torch within ``atol`` at B = 1 and 64."""
+    ``actions`` [B, A], B dynamic, as one self-contained file. With ``check``, onnxruntime must match torch within
+    ``atol`` at B = 1 and 64. Refuses a policy with NaN or inf weights (a diverged training run)."""
     module = policy.as_onnx(verbose=False).to("cpu").eval()
     if list(getattr(module, "input_names", [])) != ["obs", "preference"]:
         raise TypeError(
             f"{type(policy).__name__} does not export a (obs, preference) policy; use a model from pchc_rsl.modules."
         )
-    dummy = module.get_dummy_inputs()
+    bad = first_non_finite_module_tensor(module)
+    if bad is not None:
+        raise ValueError(
+            f"The policy's '{bad}' holds NaN or inf (training diverged); export a checkpoint from before that."
+        )
     batch = {0: torch.export.Dim("batch")}
-    directory = os.path.dirname(os.path.abspath(path))
-    os.makedirs(directory, exist_ok=True)
-    with tempfile.NamedTemporaryFile(dir=directory, suffix=".onnx.tmp", delete=False) as tmp:
-        tmp_path = tmp.name
-    try:
-        with torch.no_grad():
-            torch.onnx.export(
-                module,
-                dummy,
-                tmp_path,
-                input_names=["obs", "preference"],
-                output_names=["actions"],
-                dynamic_shapes={"obs": batch, "preference": batch},
-                opset_version=OPSET,
-                dynamo=True,
-                verbose=False,
-            )
-        os.replace(tmp_path, path)
-    finally:
-        if os.path.exists(tmp_path):
-            os.remove(tmp_path)
+    with _quiet(verbose), torch.no_grad():
+        program = torch.onnx.export(
+            module,
+            module.get_dummy_inputs(),
+            input_names=["obs", "preference"],
+            output_names=["actions"],
+            dynamic_shapes={"obs": batch, "preference": batch},
+            opset_version=OPSET,
+            dynamo=True,
+            verbose=verbose,
+        )
+    atomic_write(path, lambda tmp: program.save(tmp, external_data=False))
     if check:
         check_onnx_against_torch(module, path, atol)
     return path
 
 
+@contextlib.contextmanager
+def _quiet(verbose: bool):
+    """Silence torch.onnx's progress prints, log records and warnings unless ``verbose``."""
+    if verbose:
+        yield
+        return
+    torch_logger = logging.getLogger("torch.onnx")
+    level = torch_logger.level
+    torch_logger.setLevel(logging.ERROR)
+    try:
+        with warnings.catch_warnings(), contextlib.redirect_stdout(io.StringIO()):
+            warnings.simplefilter("ignore")
+            yield
+    finally:
+        torch_logger.setLevel(level)
+
+
 def check_onnx_against_torch(module: torch.nn.Module, path: str, atol: float = 1e-5, seed: int = 0) -> float:
-    """Largest |onnxruntime - torch| over random inputs at batch 1 and 64; raises if above ``atol``."""
+    """Largest |onnxruntime - torch| over random inputs at batch 1 and 64; raises if above ``atol`` or not finite."""
     session = OnnxPolicy(path)
     generator = torch.Generator().manual_seed(seed)
     worst = 0.0
@@ -65,13 +85,14 @@ def check_onnx_against_torch(module: torch.nn.Module, path: str, atol: float = 1
         with torch.no_grad():
             expected = module(obs, lam).numpy()
         worst = max(worst, float(np.abs(session(obs.numpy(), lam.numpy()) - expected).max()))
-    if worst > atol:
+    if not worst <= atol:  # also catches NaN, which compares false with everything
         raise RuntimeError(f"ONNX export of {path} differs from torch by {worst:.3g} > {atol}.")
     return worst
 
 
 class OnnxPolicy:
-    """An exported policy in onnxruntime: ``actions = policy(obs, preference)`` with shapes checked up front."""
+    """An exported policy in onnxruntime: ``actions = policy(obs, preference)`` with the inputs checked up front
+    (shapes, a non-empty batch, finite observations, each preference row on the simplex)."""
 
     def __init__(self, path: str, num_threads: int | None = None) -> None:
         import onnxruntime as ort
@@ -92,10 +113,33 @@ class OnnxPolicy:
         preference = np.asarray(preference, dtype=np.float32)
         if obs.ndim != 2 or obs.shape[1] != self.obs_dim:
             raise ValueError(f"obs must have shape [B, {self.obs_dim}], got {list(obs.shape)}.")
-        if preference.ndim != 2 or preference.shape[0] != obs.shape[0]:
+        if obs.shape[0] == 0:
+            raise ValueError(f"obs has no rows (shape {list(obs.shape)}); give at least one observation.")
+        if preference.ndim != 2 or preference.shape != (obs.shape[0], self.num_objectives):
             raise ValueError(
                 f"preference must have shape [{obs.shape[0]}, {self.num_objectives}] (one row per obs row), "
                 f"got {list(preference.shape)}."
             )
-        validate_preference(preference, self.num_objectives)
+        bad_obs = ~np.isfinite(obs)
+        if bad_obs.any():
+            row, column = (int(i[0]) for i in np.nonzero(bad_obs))
+            raise ValueError(
+                f"obs row {row} holds {obs[row, column]} at column {column} ({int(bad_obs.any(1).sum())} of "
+                f"{obs.shape[0]} rows are not finite); observations must be finite numbers."
+            )
+        self._check_preference_rows(preference)
         return self.session.run(["actions"], {"obs": obs, "preference": preference})[0]
+
+    def _check_preference_rows(self, preference: np.ndarray) -> None:
+        """Raise for the first row off the simplex, naming it (not the whole batch); vectorised for large batches."""
+        finite = np.isfinite(preference).all(axis=1)
+        sums = np.where(finite, preference.sum(axis=1), np.nan)
+        ok = finite & (preference >= 0).all(axis=1) & (np.abs(sums - 1.0) <= SUM_TOLERANCE)
+        if not ok.all():
+            row = int(np.argmin(ok))
+            try:
+                validate_preference(preference[row], self.num_objectives)
+            except ValueError as error:
+                raise ValueError(
+                    f"preference row {row} ({int((~ok).sum())} of {preference.shape[0]} rows are bad): {error}"
+                ) from None

@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import math
 import os
+import zipfile
+import zlib
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -61,7 +63,26 @@ def _read_csv(path: Path) -> tuple[float, list[str], np.ndarray]:
 
 def _read_npz(path: Path) -> tuple[float, list[str], np.ndarray]:
     """(fps, joint names, joint positions [T, D]) of an npz clip."""
-    with np.load(path, allow_pickle=False) as data:
+    try:
+        return _read_npz_archive(path)
+    except (zipfile.BadZipFile, zlib.error, EOFError, OSError) as error:  # truncated, empty, not a zip archive
+        reason = (str(error).strip().splitlines() or [""])[0]
+        raise ValueError(
+            f"{path} ({path.stat().st_size} bytes) is not a readable .npz archive (truncated or corrupt?): "
+            f"{type(error).__name__}: {reason}"
+        ) from None
+
+
+def _read_npz_archive(path: Path) -> tuple[float, list[str], np.ndarray]:
+    if path.stat().st_size == 0:
+        raise EOFError("the file is empty")
+    try:
+        archive = np.load(path, allow_pickle=False)
+    except ValueError:  # numpy's guess for a file that is neither .npy nor .npz: pickled data
+        raise zipfile.BadZipFile("neither a zip archive nor a numpy array") from None
+    if isinstance(archive, np.ndarray):
+        raise ValueError(f"{path} holds a single .npy array, not an .npz archive with keys {list(NPZ_KEYS)}.")
+    with archive as data:
         missing = [key for key in NPZ_KEYS if key not in data.files]
         if missing:
             raise ValueError(

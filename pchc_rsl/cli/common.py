@@ -1,7 +1,11 @@
-"""Building an environment and a runner from a TaskConfig: shared by the CLIs and the tests."""
+"""Building an environment and a runner from a TaskConfig, and a TaskConfig from a checkpoint: shared by the CLIs
+and the tests."""
 
 from __future__ import annotations
 
+import contextlib
+import glob
+import io
 import json
 import os
 
@@ -9,7 +13,9 @@ import torch
 
 from rsl_rl.utils import resolve_callable
 
-from pchc_rsl.configs import TaskConfig
+from pchc_rsl.configs import TaskConfig, task_config
+from pchc_rsl.configs.base import apply_saved
+from pchc_rsl.files import atomic_write
 from pchc_rsl.runners import PCHCRunner
 
 
@@ -22,13 +28,45 @@ def make_env(cfg: TaskConfig):
     return env
 
 
-def make_runner(cfg: TaskConfig, log_dir: str | None = None) -> PCHCRunner:
-    """Seed torch, build the env and a PCHCRunner; with a log_dir, write the resolved config there as config.json."""
+def make_runner(cfg: TaskConfig, log_dir: str | None = None, verbose: bool = False,
+                config: dict | None = None) -> PCHCRunner:
+    """Seed torch, build the env and a PCHCRunner; with a log_dir, write the config there as config.json once both
+    were built (a folder that already holds checkpoints is refused). ``config`` (default ``cfg.to_dict()``) is what
+    checkpoints carry. Construction prints (the models,
+    the observation sets) only with ``verbose``."""
+    if log_dir is not None and glob.glob(os.path.join(log_dir, "model_*.pt")):
+        raise FileExistsError(f"{log_dir} already holds checkpoints of another run; give a new folder.")
     torch.manual_seed(cfg.seed)
-    env = make_env(cfg)
-    config = cfg.to_dict()
+    config = config if config is not None else cfg.to_dict()
+    with contextlib.nullcontext() if verbose else contextlib.redirect_stdout(io.StringIO()):
+        env = make_env(cfg)
+        runner = PCHCRunner(env, cfg.runner.to_rsl_rl(), log_dir=log_dir, device=cfg.device, config=config,
+                            verbose=verbose)
     if log_dir is not None:
-        os.makedirs(log_dir, exist_ok=True)
-        with open(os.path.join(log_dir, "config.json"), "w") as f:
-            json.dump(config, f, indent=2)
-    return PCHCRunner(env, cfg.runner.to_rsl_rl(), log_dir=log_dir, device=cfg.device, config=config)
+        atomic_write(os.path.join(log_dir, "config.json"), lambda tmp: _write_json(tmp, config))
+    return runner
+
+
+def _write_json(path: str, data: dict) -> None:
+    with open(path, "w") as f:
+        json.dump(data, f, indent=2)
+
+
+def restore_config(saved: dict) -> TaskConfig:
+    """The TaskConfig a checkpoint was trained with (its saved ``config`` dict), rebuilt on the task's dataclasses:
+    env, models, algorithm, runner, num_envs, seed, device and fixed preference."""
+    cfg = task_config(saved["task"])
+    apply_saved(cfg.runner, saved["runner"])
+    apply_saved(cfg.env, saved["env"])
+    for key in ("num_envs", "seed", "device", "fixed_preference"):
+        if key in saved:
+            setattr(cfg, key, saved[key])
+    return cfg
+
+
+def saved_config(path: str, loaded: dict) -> dict:
+    """The resolved config pchc-train stored in a loaded checkpoint; ValueError naming the file if there is none."""
+    config = loaded.get("config") or {}
+    if "task" not in config:
+        raise ValueError(f"{path} has no saved task config; was it written by pchc-train?")
+    return config

@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 
 import numpy as np
 
+from pchc_rsl.cli import arguments
 from pchc_rsl.evaluation import (
     TASK_EVALUATION,
     aggregate,
@@ -17,95 +19,125 @@ from pchc_rsl.evaluation import (
     front_summary,
     markdown_table,
     run_episodes,
+    run_return_episodes,
     switching_run,
 )
-from pchc_rsl.preference import validate_preference
-from pchc_rsl.runners import load_checkpoint
+
+PROG = "pchc-eval"
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="pchc-eval",
-        description="Evaluate checkpoints at fixed preferences under the task's evaluation preset (no randomisation, "
-        "no noise, the paper's pushes); write results.json, table.md, pareto.png (and energy_curve.png for fall "
-        "recovery, switching.png with --switch).",
+    parser = arguments.Parser(
+        prog=PROG,
+        description="Evaluate checkpoints at fixed preferences under the task's evaluation preset (G1: no "
+        "randomisation, no noise, the paper's pushes; toy: undiscounted returns of each goal); write results.json, "
+        "table.md, pareto.png (and energy_curve.png for fall recovery, switching.png with --switch).",
     )
     parser.add_argument("checkpoints", nargs="+")
-    parser.add_argument("--preferences", type=int, default=5, help="evenly spaced preferences from (1,0) to (0,1)")
-    parser.add_argument("--preference", action="append", metavar="L1,L2", help="explicit preference(s); repeatable")
-    parser.add_argument("--num-envs", type=int, default=16)
-    parser.add_argument("--episodes", type=int, default=1, help="episodes per env and preference")
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--episode-length", type=float, help="override the episode length (s)")
-    parser.add_argument("--switch", action="store_true", help="also switch lambda (0,1) -> (1,0) mid-episode")
-    parser.add_argument("--output", default="eval")
+    parser.add_argument("--preferences", type=arguments.at_least_two, default=5,
+                        help="evenly spaced preferences from (1,0) to (0,1) (default 5)")
+    parser.add_argument("--preference", action="append", type=arguments.preference, metavar="L1,L2",
+                        help="explicit preference(s) instead; repeatable")
+    parser.add_argument("--num-envs", type=arguments.positive_int, default=16)
+    parser.add_argument("--episodes", type=arguments.positive_int, default=1, help="episodes per env and preference")
+    parser.add_argument("--seed", type=arguments.seed, default=0)
+    parser.add_argument("--episode-length", type=arguments.positive_float, help="override the episode length (s)")
+    parser.add_argument("--switch", action="store_true", help="also switch lambda (0,1) -> (1,0) mid-episode (G1)")
+    parser.add_argument("--output", default="eval", help="folder for the results (default: eval)")
+    parser.add_argument("-v", "--verbose", action="store_true", help="print the models and error tracebacks")
     return parser
 
 
 def main(argv: list[str] | None = None) -> None:
     args = build_parser().parse_args(argv)
-    preferences = (
-        [tuple(validate_preference([float(x) for x in p.split(",")], 2).tolist()) for p in args.preference]
-        if args.preference
-        else evenly_spaced_preferences(args.preferences)
-    )
-    os.makedirs(args.output, exist_ok=True)
-    results, tasks, curves, switching = [], set(), {}, None
-    for path in args.checkpoints:
-        result, task, curve, switch = evaluate_checkpoint(path, preferences, args)
-        results.append(result)
-        tasks.add(task)
-        curves[result["name"]] = curve
-        switching = switching or switch
-    if len(tasks) != 1:
-        raise SystemExit(f"pchc-eval: checkpoints of different tasks {sorted(tasks)} cannot share one table.")
-    evaluation = TASK_EVALUATION[tasks.pop()]
-    with open(os.path.join(args.output, "results.json"), "w") as f:
-        json.dump({"table": evaluation.table, "seed": args.seed, "results": results,
-                   "switching": _switching_json(switching)}, f, indent=2)
-    with open(os.path.join(args.output, "table.md"), "w") as f:
-        f.write(markdown_table(results, evaluation))
-    plot_pareto(results, evaluation, os.path.join(args.output, "pareto.png"))
-    if "energy_overall" in evaluation.columns:
-        plot_energy_curves(curves, os.path.join(args.output, "energy_curve.png"))
-    if switching is not None:
-        plot_switching(switching, os.path.join(args.output, "switching.png"))
+    try:
+        task, saved, preferences = check_inputs(args)
+        results, curves, switching = [], {}, None
+        for path in args.checkpoints:
+            result, curve, switch = evaluate_checkpoint(path, saved[path], preferences, args)
+            results.append(result)
+            curves[result["name"]] = curve
+            switching = switching or switch
+    except (ValueError, FileNotFoundError) as error:
+        if args.verbose:
+            raise
+        raise SystemExit(f"{PROG}: {error}") from None
+    evaluation = TASK_EVALUATION[task]
+    written = write_outputs(results, evaluation, curves, switching, args)
     print(markdown_table(results, evaluation))
     for result in results:
         f = result["front"]
         print(f"{result['name']}: hypervolume {f['hypervolume']:.4g} (reference point {f['reference_point']}), "
               f"sparsity {f['sparsity']:.4g}, {f['num_points']} non-dominated points")
-    print(f"pchc-eval: wrote {args.output}/results.json, table.md, pareto.png")
+    print(f"{PROG}: wrote " + ", ".join(written))
 
 
-def evaluate_checkpoint(path: str, preferences, args):
-    from pchc_rsl.cli.common import make_runner
-    from pchc_rsl.cli.export_onnx import restore_config
-    from pchc_rsl.configs import task_config
+def check_inputs(args) -> tuple[str, dict, list[tuple[float, ...]]]:
+    """Everything that can be refused before evaluating: unreadable checkpoints, tasks without an evaluation or
+    differing between checkpoints, preferences off the simplex, --switch on a task without it, a file as --output.
+    Returns the task, each checkpoint's saved config and the preferences."""
+    from pchc_rsl.cli.common import saved_config
+    from pchc_rsl.preference import validate_preference
+    from pchc_rsl.runners import load_checkpoint
 
-    config = load_checkpoint(path).get("config") or {}
-    task = config.get("task")
-    if task not in TASK_EVALUATION:
-        raise SystemExit(f"pchc-eval: {path} is for task '{task}'; evaluation is defined for {sorted(TASK_EVALUATION)}.")
+    if os.path.exists(args.output) and not os.path.isdir(args.output):
+        raise ValueError(f"--output {args.output} is a file; give a folder.")
+    saved = {}
+    for path in args.checkpoints:
+        config = saved_config(path, load_checkpoint(path))
+        if config["task"] not in TASK_EVALUATION:
+            raise ValueError(f"{path} is for task '{config['task']}'; evaluation is defined for "
+                             f"{', '.join(sorted(TASK_EVALUATION))}.")
+        saved[path] = config
+    evaluations = {id(TASK_EVALUATION[c["task"]]) for c in saved.values()}
+    if len(evaluations) != 1:
+        raise ValueError("checkpoints of different tasks " + str(sorted({c["task"] for c in saved.values()}))
+                         + " cannot share one table; evaluate them separately.")
+    task = next(iter(saved.values()))["task"]
+    if args.switch and TASK_EVALUATION[task].episode_returns:
+        raise ValueError(f"--switch measures falls and settling of the G1 tasks; task '{task}' has no such metrics.")
+    if args.episode_length is not None and TASK_EVALUATION[task].episode_returns:
+        raise ValueError(f"task '{task}' is evaluated on the episodes it was trained on; drop --episode-length.")
+    num_objectives = len(next(iter(saved.values()))["env"]["objective_names"])
+    if args.preference:
+        preferences = []
+        for p in args.preference:
+            try:
+                preferences.append(tuple(validate_preference(p, num_objectives).tolist()))
+            except ValueError as error:
+                raise ValueError(f"--preference {','.join(f'{x:g}' for x in p)}: {error}") from None
+    else:
+        preferences = evenly_spaced_preferences(args.preferences)
+    return task, saved, preferences
+
+
+def evaluate_checkpoint(path: str, config: dict, preferences, args):
+    from pchc_rsl.cli.common import make_runner, restore_config
+
+    task = config["task"]
     evaluation = TASK_EVALUATION[task]
-    name = os.path.splitext(os.path.basename(os.path.dirname(os.path.abspath(path))))[0] + "/" + os.path.basename(path)
+    name = os.path.basename(os.path.dirname(os.path.abspath(path))) + "/" + os.path.basename(path)
     metrics = {p: {} for p in preferences}
     curve_prefs = {preferences[0], preferences[len(preferences) // 2], preferences[-1]}
     curves, switch = {}, None
-    for preset_index, preset in enumerate(evaluation.push_presets):
-        cfg = task_config(task)
-        restore_config(cfg, config)
-        cfg = evaluation_preset(cfg, preset, evaluation)
-        cfg.num_envs, cfg.seed = args.num_envs, args.seed
+    presets = evaluation.push_presets or [None]
+    for preset_index, preset in enumerate(presets):
+        cfg = restore_config(config)
+        if preset is not None:
+            cfg = evaluation_preset(cfg, preset, evaluation)
+        cfg.num_envs, cfg.seed, cfg.device, cfg.fixed_preference = args.num_envs, args.seed, "cpu", None
         if args.episode_length is not None:
             cfg.env.episode_length_s = args.episode_length
-        runner = make_runner(cfg)
+        runner = make_runner(cfg, verbose=args.verbose)
         runner.load(path)
         policy = runner.get_inference_policy()
+        run = run_return_episodes if evaluation.episode_returns else run_episodes
         for lam in preferences:
-            episodes, curve = run_episodes(runner.env, policy, lam, args.episodes, progress=f"{name} {preset} {lam}")
+            label = f"{name} {preset or ''} {lam}".replace("  ", " ")
+            episodes, curve = run(runner.env, policy, lam, args.episodes, progress=label)
             summary = aggregate(episodes)
-            metrics[lam].update({f"{preset}/{k}": v for k, v in summary.items()})
+            if preset is not None:
+                metrics[lam].update({f"{preset}/{k}": v for k, v in summary.items()})
             if preset_index == 0:
                 metrics[lam].update(summary)
                 if lam in curve_prefs:
@@ -117,7 +149,40 @@ def evaluate_checkpoint(path: str, preferences, args):
     rows = [{"preference": list(lam), "metrics": metrics[lam]} for lam in preferences]
     result = {"name": name, "checkpoint": os.path.abspath(path), "rows": rows}
     result["front"] = front_summary(front_points(rows, evaluation), evaluation)
-    return result, task, curves, switch
+    return result, curves, switch
+
+
+def write_outputs(results, evaluation, curves, switching, args) -> list[str]:
+    """results.json (strict JSON: null where a metric is undefined), table.md and the plots; the paths written."""
+    os.makedirs(args.output, exist_ok=True)
+    path = os.path.join(args.output, "results.json")
+    with open(path, "w") as f:
+        json.dump(_finite_or_null({"table": evaluation.table, "seed": args.seed, "results": results,
+                                   "switching": _switching_json(switching)}), f, indent=2, allow_nan=False)
+    written = [path]
+    path = os.path.join(args.output, "table.md")
+    with open(path, "w") as f:
+        f.write(markdown_table(results, evaluation))
+    written.append(path)
+    written.append(plot_pareto(results, evaluation, os.path.join(args.output, "pareto.png")))
+    if "energy_overall" in evaluation.columns:
+        written.append(plot_energy_curves(curves, os.path.join(args.output, "energy_curve.png")))
+    if switching is not None:
+        written.append(plot_switching(switching, os.path.join(args.output, "switching.png")))
+    return written
+
+
+def _finite_or_null(value):
+    """A copy of nested dicts/lists with NaN and inf as None (JSON has no NaN) and numpy scalars as floats."""
+    if isinstance(value, dict):
+        return {k: _finite_or_null(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite_or_null(v) for v in value]
+    if isinstance(value, (float, np.floating)):
+        return float(value) if math.isfinite(value) else None
+    if isinstance(value, np.integer):
+        return int(value)
+    return value
 
 
 def _switching_json(switch):
@@ -150,10 +215,25 @@ def plot_pareto(results, evaluation, path):
     ax.set_xlabel(evaluation.columns.get(a, a))
     ax.set_ylabel(evaluation.columns.get(b, b))
     ax.set_title(f"{evaluation.table}; HV reference point {evaluation.reference_point}", fontsize=9)
+    empty = _empty_front_reason(results, evaluation)
+    if empty:
+        ax.text(0.5, 0.5, empty, transform=ax.transAxes, ha="center", va="center", fontsize=8, wrap=True)
     ax.legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
+    return path
+
+
+def _empty_front_reason(results, evaluation) -> str:
+    """Why there is no point to plot, or '' when there is one: the front metric(s) undefined at every preference."""
+    keys = [key for key, _ in evaluation.front]
+    rows = [row for result in results for row in result["rows"]]
+    if any(all(math.isfinite(row["metrics"].get(key, math.nan)) for key in keys) for row in rows):
+        return ""
+    undefined = [key for key in keys if not any(math.isfinite(r["metrics"].get(key, math.nan)) for r in rows)]
+    return (f"No point to plot: {' and '.join(undefined)} undefined at every preference.\n"
+            "No episode lasted long enough to measure it\n(e.g. every episode fell before the first push).")
 
 
 def plot_energy_curves(curves, path):
@@ -168,6 +248,7 @@ def plot_energy_curves(curves, path):
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
+    return path
 
 
 def plot_switching(switch, path):
@@ -184,6 +265,7 @@ def plot_switching(switch, path):
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
+    return path
 
 
 if __name__ == "__main__":

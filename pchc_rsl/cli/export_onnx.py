@@ -2,44 +2,46 @@
 
 from __future__ import annotations
 
-import argparse
 import os
 
-from pchc_rsl.runners import load_checkpoint
+from pchc_rsl.cli import arguments
+
+PROG = "pchc-export-onnx"
 
 
 def main(argv: list[str] | None = None) -> None:
-    parser = argparse.ArgumentParser(
-        prog="pchc-export-onnx",
-        description="Export the deterministic policy of a pchc-train checkpoint to ONNX (inputs 'obs' [B, obs_dim] "
-        "and 'preference' [B, m], output 'actions'; dynamic batch) and check it against torch in onnxruntime.",
+    parser = arguments.Parser(
+        prog=PROG,
+        description="Export the deterministic policy of a pchc-train checkpoint to one self-contained ONNX file "
+        "(inputs 'obs' [B, obs_dim] and 'preference' [B, m], output 'actions'; dynamic batch) and check it against "
+        "torch in onnxruntime.",
     )
     parser.add_argument("checkpoint")
     parser.add_argument("-o", "--output", help="ONNX file (default: next to the checkpoint, same name .onnx)")
+    parser.add_argument("-v", "--verbose", action="store_true", help="print torch's export messages and tracebacks")
     args = parser.parse_args(argv)
-
-    from pchc_rsl.cli.common import make_runner
-    from pchc_rsl.configs import task_config
-
-    config = load_checkpoint(args.checkpoint).get("config") or {}
-    if "task" not in config:
-        raise SystemExit(f"pchc-export-onnx: {args.checkpoint} has no saved config; was it written by pchc-train?")
-    cfg = task_config(config["task"])
-    restore_config(cfg, config)
-    cfg.num_envs = 1
-    runner = make_runner(cfg)
-    runner.load(args.checkpoint)
     output = args.output or os.path.splitext(args.checkpoint)[0] + ".onnx"
-    runner.export_onnx(output)
-    print(f"pchc-export-onnx: wrote {output}")
+    if os.path.isdir(output):
+        raise SystemExit(f"{PROG}: --output {output} is a folder; give a file name such as {output}/policy.onnx.")
+    try:
+        export(args.checkpoint, output, args.verbose)
+    except (ValueError, FileNotFoundError, RuntimeError) as error:
+        if args.verbose:
+            raise
+        raise SystemExit(f"{PROG}: {error}") from None
+    print(f"{PROG}: wrote {output}")
 
 
-def restore_config(cfg, saved: dict) -> None:
-    """Apply a checkpoint's saved env and model settings to a fresh TaskConfig, so everything is rebuilt as trained."""
-    from pchc_rsl.configs.base import apply_saved
+def export(checkpoint: str, output: str, verbose: bool = False) -> str:
+    """Rebuild the checkpoint's policy from its saved config (on the CPU, one env) and export it."""
+    from pchc_rsl.cli.common import make_runner, restore_config, saved_config
+    from pchc_rsl.runners import load_checkpoint
 
-    apply_saved(cfg.runner, saved["runner"])
-    apply_saved(cfg.env, saved["env"])
+    cfg = restore_config(saved_config(checkpoint, load_checkpoint(checkpoint)))
+    cfg.num_envs, cfg.device = 1, "cpu"
+    runner = make_runner(cfg, verbose=verbose)
+    runner.load(checkpoint)
+    return runner.export_onnx(output, verbose=verbose)
 
 
 if __name__ == "__main__":

@@ -1,75 +1,238 @@
-"""pchc-train: train a preference-conditioned policy on a registered task."""
+"""pchc-train: train a preference-conditioned policy on a registered task, or continue a checkpoint."""
 
 from __future__ import annotations
 
 import argparse
+import copy
 import datetime
 import os
+import re
+import shlex
+import sys
+import time
 
-from pchc_rsl.configs import ACTOR_CLASSES, TASKS, select_actor, task_config
-from pchc_rsl.preference import validate_preference
+from pchc_rsl.cli import arguments
+from pchc_rsl.configs import ACTOR_CLASSES, TASKS
+from pchc_rsl.configs.base import LOGGERS
+
+PROG = "pchc-train"
+OVERRIDE_SHAPE = re.compile(r"^[A-Za-z_][\w.]*=")
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="pchc-train",
-        description="Train PCHC (MultiCriticPPO + PCI actor) on a task. Known tasks: " + ", ".join(sorted(TASKS)),
+def build_parser(task_help: str = "") -> argparse.ArgumentParser:
+    parser = arguments.Parser(
+        prog=PROG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        description="Train PCHC (MultiCriticPPO + PCI actor) on a task, or continue a checkpoint with --resume.\n"
+        "Any field of the task's config can be set with KEY=VALUE (e.g. runner.algorithm.learning_rate=3e-4 "
+        "env.push.interval_s=2,4);\n`pchc-train --task TASK --help` lists them all with their values.",
+        epilog=task_help,
     )
-    parser.add_argument("--task", required=True, help="task name: " + ", ".join(sorted(TASKS)))
-    parser.add_argument("--num-envs", type=int, help="parallel environments (default: the task's)")
-    parser.add_argument("--max-iterations", type=int, help="PPO iterations (default: the task's)")
-    parser.add_argument("--seed", type=int, help="random seed (default: the task's)")
+    parser.add_argument("overrides", nargs="*", metavar="KEY=VALUE", help="set any config field (see above)")
+    parser.add_argument("--task", help="task name: " + ", ".join(sorted(TASKS)) + " (with --resume: the checkpoint's)")
+    parser.add_argument("--num-envs", type=arguments.positive_int, help="parallel environments (default: the task's)")
+    parser.add_argument("--max-iterations", type=arguments.positive_int,
+                        help="PPO iterations to run (default: the task's). With --resume these are additional "
+                        "iterations: model_9.pt + 10 ends at model_19.pt")
+    parser.add_argument("--seed", type=arguments.seed, help="random seed (default: the task's)")
     parser.add_argument("--device", help="torch device, e.g. cpu or cuda:0 (default: the task's)")
     parser.add_argument("--actor", choices=sorted(ACTOR_CLASSES), help="actor variant (default: pci)")
-    parser.add_argument("--fixed-preference", metavar="L1,L2",
+    parser.add_argument("--fixed-preference", type=arguments.preference, metavar="L1,L2",
                         help="hold lambda constant during training (baselines); required by --actor no-preference")
     parser.add_argument("--motion-files", nargs="+", metavar="PATH",
                         help="reference motions for the AMP style reward (files or folders: LAFAN1 G1 CSV, npz)")
-    parser.add_argument("--log-dir", help="where checkpoints and TensorBoard events go (default: logs/TASK/DATE)")
-    parser.add_argument("--resume", metavar="CKPT", help="checkpoint to continue from")
+    parser.add_argument("--log-dir", help="a new (or empty) folder for this run's checkpoints and TensorBoard events "
+                        "(default: logs/TASK/DATE)")
+    parser.add_argument("--logger", choices=sorted(LOGGERS), help="where training scalars go (default: tensorboard)")
+    parser.add_argument("--logger-project", metavar="NAME", help="W&B / Neptune project (default: the experiment)")
+    parser.add_argument("--resume", metavar="CKPT",
+                        help="continue this checkpoint in a new run folder, with its config; flags and KEY=VALUE "
+                        "given here override it")
+    parser.add_argument("--show-config", action="store_true", help="print the resolved config and exit")
+    parser.add_argument("-v", "--verbose", action="store_true",
+                        help="also print the models, rsl-rl's full per-iteration block and error tracebacks")
     return parser
 
 
 def main(argv: list[str] | None = None) -> None:
-    args = build_parser().parse_args(argv)
+    argv = sys.argv[1:] if argv is None else list(argv)
+    args = build_parser(_task_help(argv)).parse_args(argv)
+    _take_overrides_from_motion_files(args)
+    from pchc_rsl.cli.run_folder import new_run_folder
+
     try:
+        cfg, config, notes = resolve(args)
+        if args.show_config:
+            from pchc_rsl.cli.overrides import format_config
+
+            print(format_config(cfg))
+            return
+        log_dir = new_run_folder(args.log_dir, cfg.name)
+    except (ValueError, FileNotFoundError) as error:
+        if args.verbose:
+            raise
+        raise SystemExit(f"{PROG}: {error}") from None
+    for note in notes:
+        print(f"{PROG}: {note}")
+    train(cfg, config, log_dir, args)
+
+
+def resolve(args) -> tuple:
+    """The TaskConfig to train (the task's, or the checkpoint's with --resume), flags and KEY=VALUE overrides
+    applied and checked; the config dict checkpoints will carry; lines to tell the user."""
+    from pchc_rsl.cli.checks import check_task_config
+    from pchc_rsl.cli.common import restore_config, saved_config
+    from pchc_rsl.cli.overrides import apply_overrides, config_fields, set_value
+    from pchc_rsl.configs import task_config
+    from pchc_rsl.preference import validate_preference
+    from pchc_rsl.runners import load_checkpoint
+
+    notes = []
+    if args.resume:
+        saved = saved_config(args.resume, load_checkpoint(args.resume))
+        if args.task is not None and args.task != saved["task"]:
+            raise ValueError(f"--task {args.task}, but {args.resume} was trained on '{saved['task']}'.")
+        cfg = restore_config(saved)
+    elif args.task is None:
+        raise ValueError("give --task TASK (one of " + ", ".join(sorted(TASKS)) + ") or --resume CKPT.")
+    else:
         cfg = task_config(args.task)
-    except ValueError as error:
-        raise SystemExit(f"pchc-train: {error}")
-    if args.num_envs is not None:
-        cfg.num_envs = args.num_envs
-    if args.max_iterations is not None:
-        cfg.runner.max_iterations = args.max_iterations
-    if args.seed is not None:
-        cfg.seed = args.seed
-    if args.device is not None:
-        cfg.device = args.device
+    before = copy.deepcopy({k: v[3] for k, v in config_fields(cfg, aliases=False).items()})
+
+    flags = []
+    for flag, key in (("num_envs", "num_envs"), ("max_iterations", "runner.max_iterations"), ("seed", "seed"),
+                      ("device", "device"), ("logger", "runner.logger"), ("logger_project", "runner.logger_project")):
+        if getattr(args, flag) is not None:
+            flags.append(f"{key}={getattr(args, flag)}")
     if args.actor is not None:
+        from pchc_rsl.configs import select_actor
+
         select_actor(cfg.runner.actor, args.actor)
+        if args.actor == "no-preference":
+            cfg.runner.obs_groups["actor"] = [g for g in cfg.runner.obs_groups["actor"] if g != "preference"]
     if args.motion_files:
         if cfg.runner.algorithm.amp_cfg is None:
-            raise SystemExit(f"pchc-train: task '{cfg.name}' has no AMP style reward; drop --motion-files.")
+            raise ValueError(f"task '{cfg.name}' has no AMP style reward; drop --motion-files.")
         cfg.runner.algorithm.amp_cfg.motion_files = list(args.motion_files)
+    for item in flags:
+        key, _, text = item.partition("=")
+        set_value(cfg, key, text)
+    apply_overrides(cfg, args.overrides)
     if args.fixed_preference is not None:
+        cfg.fixed_preference = args.fixed_preference
+    if cfg.fixed_preference is not None:
         try:
-            lam = validate_preference([float(x) for x in args.fixed_preference.split(",")], len(cfg.env.objective_names))
+            lam = validate_preference(cfg.fixed_preference, len(cfg.env.objective_names))
         except ValueError as error:
-            raise SystemExit(f"pchc-train: --fixed-preference {args.fixed_preference}: {error}")
+            raise ValueError(f"fixed preference {cfg.fixed_preference}: {error}") from None
         cfg.fixed_preference = lam.tolist()
-    if args.actor == "no-preference":
-        if cfg.fixed_preference is None:
-            raise SystemExit("pchc-train: --actor no-preference trains one fixed weighting; give --fixed-preference.")
-        cfg.runner.obs_groups["actor"] = [g for g in cfg.runner.obs_groups["actor"] if g != "preference"]
-    log_dir = args.log_dir or os.path.join(
-        "logs", cfg.name, datetime.datetime.now().strftime("%Y-%m-%d_%H-%M-%S")
-    )
-    from pchc_rsl.cli.common import make_runner
+    if "preference" not in cfg.runner.obs_groups["actor"] and cfg.fixed_preference is None:
+        raise ValueError("--actor no-preference trains one fixed weighting; give --fixed-preference.")
+    check_task_config(cfg)
 
-    runner = make_runner(cfg, log_dir)
+    after = {k: v[3] for k, v in config_fields(cfg, aliases=False).items()}
+    changed = [k for k, v in after.items() if before.get(k) != v]
     if args.resume:
-        runner.load(args.resume)
-    runner.learn(cfg.runner.max_iterations)
-    print(f"pchc-train: checkpoints and TensorBoard events in {log_dir}")
+        shown = ", ".join(f"{k} {_show(before.get(k))} -> {_show(after[k])}" for k in changed)
+        notes.append(f"continuing {args.resume} with its config" + (f"; overridden: {shown}" if shown else ""))
+    amp = cfg.runner.algorithm.amp_cfg
+    if amp is not None and not amp.motion_files:
+        notes.append("AMP is off: no --motion-files given (see the README's AMP section).")
+    config = cfg.to_dict()
+    # what differs from the task's defaults (resuming: from the checkpoint's config), as KEY=VALUE
+    config["overrides"] = [f"{k}={_show(after[k])}" for k in changed]
+    if args.resume:
+        config["resumed_from"] = os.path.abspath(args.resume)
+    return cfg, config, notes
+
+
+def train(cfg, config: dict, log_dir: str, args) -> None:
+    """Build, train, and close with a summary; a failed run that saved no checkpoint leaves no folder behind."""
+    from pchc_rsl.cli.common import make_runner
+    from pchc_rsl.cli.run_folder import checkpoints_in, first_missing_folder, remove_if_unused
+    from pchc_rsl.runners import NonFiniteTraining, TrainingInterrupted
+
+    created = first_missing_folder(log_dir)
+    start = time.time()
+    try:
+        runner = make_runner(cfg, log_dir, verbose=args.verbose, config=config)
+        if args.resume:
+            runner.load(args.resume)
+        first = runner.current_learning_iteration
+        last = first + cfg.runner.max_iterations - 1
+        print(f"{PROG}: {cfg.name}, {cfg.num_envs} envs on {cfg.device}, iterations {first}-{last} -> {log_dir}",
+              flush=True)
+        runner.learn(cfg.runner.max_iterations)
+    except TrainingInterrupted as stop:
+        remove_if_unused(log_dir, created)
+        print(f"\n{PROG}: interrupted; " + (f"saved {stop.checkpoint}" if stop.checkpoint else "nothing to save."))
+        if stop.checkpoint and checkpoints_in(log_dir):
+            _summary(cfg, log_dir, stop.checkpoint, start)
+        raise SystemExit(130) from None
+    except KeyboardInterrupt:
+        remove_if_unused(log_dir, created)
+        raise SystemExit(f"\n{PROG}: interrupted before training started; nothing saved.") from None
+    except NonFiniteTraining as stop:
+        remove_if_unused(log_dir, created)
+        raise SystemExit(f"{PROG}: {stop}") from None
+    except (ValueError, FileNotFoundError, FileExistsError, ImportError) as error:
+        remove_if_unused(log_dir, created)
+        if args.verbose:
+            raise
+        raise SystemExit(f"{PROG}: {error}") from None
+    except BaseException:
+        remove_if_unused(log_dir, created)
+        raise
+    _summary(cfg, log_dir, checkpoints_in(log_dir)[-1], start)
+
+
+def _summary(cfg, log_dir: str, checkpoint: str, start: float) -> None:
+    """Where everything is and what to run next, with the real paths."""
+    from pchc_rsl.cli.run_folder import checkpoints_in
+    from pchc_rsl.evaluation import TASK_EVALUATION
+
+    q = shlex.quote
+    names = ", ".join(os.path.basename(p) for p in checkpoints_in(log_dir))
+    elapsed = datetime.timedelta(seconds=round(time.time() - start))
+    lines = [
+        f"{PROG}: done in {elapsed}. Checkpoints in {log_dir}: {names}",
+        f"  TensorBoard:  tensorboard --logdir {q(log_dir)}",
+        f"  export:       pchc-export-onnx {q(checkpoint)} -o {q(os.path.join(log_dir, 'policy.onnx'))}",
+    ]
+    if cfg.name in TASK_EVALUATION:
+        lines.append(f"  evaluate:     pchc-eval {q(checkpoint)} --output {q(os.path.join(log_dir, 'eval'))}")
+    lines.append(f"  continue:     pchc-train --resume {q(checkpoint)} --max-iterations {cfg.runner.max_iterations}")
+    print("\n".join(lines))
+
+
+def _task_help(argv: list[str]) -> str:
+    """With ``--task T --help``: the task's full config, for the help's epilog."""
+    if not {"-h", "--help"} & set(argv):
+        return ""
+    pre = argparse.ArgumentParser(add_help=False)
+    pre.add_argument("--task")
+    known, _ = pre.parse_known_args(argv)
+    if known.task not in TASKS:
+        return "Give --task TASK with --help to list that task's config."
+    from pchc_rsl.cli.overrides import format_config
+    from pchc_rsl.configs import task_config
+
+    return f"config of task {known.task} (set any with KEY=VALUE):\n" + format_config(task_config(known.task))
+
+
+def _take_overrides_from_motion_files(args) -> None:
+    """``--motion-files a.csv KEY=VALUE``: argparse gives every word to --motion-files; a word shaped like an
+    override (a dotted name, '=', no '/') is one."""
+    if args.motion_files:
+        words = args.motion_files
+        args.motion_files = [w for w in words if not OVERRIDE_SHAPE.match(w)]
+        args.overrides = [w for w in words if OVERRIDE_SHAPE.match(w)] + list(args.overrides)
+
+
+def _show(value) -> str:
+    import json
+
+    return json.dumps(value, default=str)
 
 
 if __name__ == "__main__":

@@ -1,5 +1,6 @@
 """Training runners."""
 
-from pchc_rsl.runners.pchc_runner import PCHCRunner, load_checkpoint
+from pchc_rsl.runners.checkpoint import load_checkpoint
+from pchc_rsl.runners.pchc_runner import NonFiniteTraining, PCHCRunner, TrainingInterrupted, TrainingStopped
 
-__all__ = ["PCHCRunner", "load_checkpoint"]
+__all__ = ["NonFiniteTraining", "PCHCRunner", "TrainingInterrupted", "TrainingStopped", "load_checkpoint"]

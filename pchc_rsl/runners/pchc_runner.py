@@ -1,9 +1,9 @@
-"""PCHCRunner: rsl-rl's OnPolicyRunner with self-describing, atomic, weights-only checkpoints and ONNX export."""
+"""PCHCRunner: rsl-rl's OnPolicyRunner with self-describing, atomic, weights-only checkpoints and ONNX export,
+and a training loop that stops on NaN, saves on Ctrl-C and prints one line per iteration."""
 
 from __future__ import annotations
 
 import os
-import tempfile
 
 import torch
 
@@ -11,6 +11,26 @@ from rsl_rl.env import VecEnv
 from rsl_rl.runners import OnPolicyRunner
 
 from pchc_rsl.export import export_onnx
+from pchc_rsl.files import atomic_write
+from pchc_rsl.finite import first_non_finite_tensor, first_non_finite_value
+from pchc_rsl.runners.checkpoint import load_checkpoint
+from pchc_rsl.runners.iteration_log import IterationLogger
+
+
+class TrainingStopped(Exception):
+    """Training ended early; ``checkpoint`` is the last good checkpoint (None if there is none)."""
+
+    def __init__(self, message: str, checkpoint: str | None) -> None:
+        super().__init__(message)
+        self.checkpoint = checkpoint
+
+
+class NonFiniteTraining(TrainingStopped):
+    """A loss or a network parameter became NaN or inf."""
+
+
+class TrainingInterrupted(TrainingStopped):
+    """Ctrl-C (KeyboardInterrupt); the state at the interrupt was saved first."""
 
 
 class PCHCRunner(OnPolicyRunner):
@@ -18,60 +38,143 @@ class PCHCRunner(OnPolicyRunner):
 
     ``config`` is a plain dict (str, numbers, lists, dicts) describing the task, so that a checkpoint can be
     evaluated or exported without guessing its settings, and loaded with ``torch.load(weights_only=True)``.
+    Iterations count from 0; ``model_<it>.pt`` holds the state after iteration ``it``, and training resumed from it
+    continues with iteration ``it + 1``.
     """
 
     def __init__(
-        self, env: VecEnv, train_cfg: dict, log_dir: str | None = None, device: str = "cpu", config: dict | None = None
+        self,
+        env: VecEnv,
+        train_cfg: dict,
+        log_dir: str | None = None,
+        device: str = "cpu",
+        config: dict | None = None,
+        verbose: bool = False,
     ) -> None:
         super().__init__(env, train_cfg, log_dir, device)
         self.config = config or {}
+        self.logger = IterationLogger(
+            log_dir=log_dir, cfg=self.cfg, env_cfg=self.env.cfg, num_envs=self.env.num_envs,
+            is_distributed=self.is_distributed, gpu_world_size=self.gpu_world_size,
+            gpu_global_rank=self.gpu_global_rank, device=self.device, verbose=verbose, guard=self._check_finite,
+        )
+        self.written: list[str] = []
+        """Checkpoints this runner wrote, oldest first."""
+        self.last_good_checkpoint: str | None = None
+        """The newest finite checkpoint this runner wrote or loaded."""
+        self.completed_iteration: int | None = None
+        """The last iteration that finished (and passed the finite check) in this process."""
+
+    # ---- training loop additions -------------------------------------------------------------------------------
+
+    def learn(self, num_learning_iterations: int, init_at_random_ep_len: bool = False) -> None:
+        """rsl-rl's loop, plus: raise NonFiniteTraining (nothing of the bad iteration saved) and, on Ctrl-C, save
+        the state at the interrupt and raise TrainingInterrupted."""
+        try:
+            super().learn(num_learning_iterations, init_at_random_ep_len)
+        except KeyboardInterrupt:
+            saved = self._save_on_interrupt()
+            self.logger.stop_logging_writer()
+            raise TrainingInterrupted("interrupted (Ctrl-C)", saved) from None
+        except NonFiniteTraining:
+            self.logger.stop_logging_writer()
+            raise
+        finally:
+            self._close_writer()
+
+    def _close_writer(self) -> None:
+        """Flush and close the event files, also when training stopped early."""
+        if self.logger.writer is not None and hasattr(self.logger.writer, "close"):
+            self.logger.writer.close()
+        self.logger.writer = None
+
+    def _check_finite(self, it: int, loss_dict: dict) -> None:
+        """Stop when an update produced NaN or inf (called by the logger right after each update)."""
+        bad_loss = first_non_finite_value(loss_dict)
+        bad = f"loss '{bad_loss}' is {loss_dict[bad_loss]}" if bad_loss is not None else None
+        if bad is None:
+            bad_tensor = first_non_finite_tensor(model_tensors(self.alg.save()))
+            bad = f"'{bad_tensor}' holds NaN or inf" if bad_tensor is not None else None
+        if bad is not None:
+            kept = f"the last good checkpoint is {self.last_good_checkpoint}" if self.last_good_checkpoint else (
+                "no checkpoint was written")
+            raise NonFiniteTraining(
+                f"training diverged at iteration {it}: {bad}; stopped without saving it ({kept}). "
+                "Lower the learning rate (runner.algorithm.learning_rate=...) or check the rewards.",
+                self.last_good_checkpoint,
+            )
+        self.completed_iteration = it
+
+    def _save_on_interrupt(self) -> str | None:
+        """Save the last completed iteration unless it is already saved; the path of the newest checkpoint."""
+        if self.completed_iteration is None or self.logger.log_dir is None:
+            return self.last_good_checkpoint
+        path = os.path.join(self.logger.log_dir, f"model_{self.completed_iteration}.pt")
+        if path not in self.written:
+            self.current_learning_iteration = self.completed_iteration
+            self.save(path)
+        return path
+
+    # ---- checkpoints -------------------------------------------------------------------------------------------
 
     def save(self, path: str, infos: dict | None = None) -> None:
-        """Write the checkpoint to a temp file in the same folder, then rename: a crash never leaves half a file."""
+        """Write the checkpoint atomically (temp file + rename); never replaces a file this runner did not write."""
         saved = self.alg.save()
         saved["iter"] = self.current_learning_iteration
         saved["infos"] = infos
         saved["config"] = self.config
-        directory = os.path.dirname(os.path.abspath(path))
-        os.makedirs(directory, exist_ok=True)
-        fd, tmp_path = tempfile.mkstemp(dir=directory, suffix=".pt.tmp")
-        os.close(fd)
-        try:
-            torch.save(saved, tmp_path)
-            os.replace(tmp_path, path)
-        finally:
-            if os.path.exists(tmp_path):
-                os.remove(tmp_path)
+        self._write_checkpoint(path, saved)
         self.logger.save_model(path, self.current_learning_iteration)
+
+    def _write_checkpoint(self, path: str, saved: dict) -> None:
+        if os.path.exists(path) and path not in self.written:
+            raise FileExistsError(f"{path} exists and was not written by this run; checkpoints are never replaced.")
+        bad = first_non_finite_tensor(model_tensors(saved))
+        if bad is not None:
+            raise ValueError(f"Refusing to save {path}: '{bad}' holds NaN or inf.")
+        atomic_write(path, lambda tmp: torch.save(saved, tmp))
+        if path not in self.written:
+            self.written.append(path)
+        self.last_good_checkpoint = path
 
     def load(
         self, path: str, load_cfg: dict | None = None, strict: bool = True, map_location: str | None = None
     ) -> dict | None:
-        """Load a checkpoint written by ``save``; refuse one trained for another task."""
-        loaded = load_checkpoint(path, map_location)
+        """Load a checkpoint written by ``save``; refuse one trained for another task. Training continues with the
+        iteration after the checkpoint's (model_9.pt + 10 iterations ends at model_19.pt)."""
+        loaded = load_checkpoint(path, map_location or self.device)
         theirs, ours = loaded.get("config", {}).get("task"), self.config.get("task")
         if theirs is not None and ours is not None and theirs != ours:
             raise ValueError(f"{path} was trained on task '{theirs}', but this runner is set up for '{ours}'.")
         try:
             load_iteration = self.alg.load(loaded, load_cfg, strict)
         except RuntimeError as error:
+            first_line = str(error).strip().splitlines()[0]
             raise ValueError(
-                f"{path} does not fit this runner's models (was it trained with another config?): {error}"
+                f"{path} does not fit this runner's models (was it trained with another config?): {first_line}"
             ) from error
         if load_iteration:
-            self.current_learning_iteration = loaded["iter"]
+            self.current_learning_iteration = loaded["iter"] + 1
+        self.last_good_checkpoint = path
         return loaded["infos"]
 
-    def export_onnx(self, path: str) -> str:
+    def export_onnx(self, path: str, verbose: bool = False) -> str:
         """Export the deterministic policy (inputs ``obs``, ``preference``) and check it against torch."""
-        return export_onnx(self.alg.get_policy(), path)
+        return export_onnx(self.alg.get_policy(), path, verbose=verbose)
 
 
-def load_checkpoint(path: str, map_location: str | None = "cpu") -> dict:
-    """``torch.load(weights_only=True)`` with an error that names the file when it is not a PCHC checkpoint."""
-    if not os.path.isfile(path):
-        raise FileNotFoundError(f"No checkpoint at {path}.")
-    loaded = torch.load(path, map_location=map_location, weights_only=True)
-    if not isinstance(loaded, dict) or "actor_state_dict" not in loaded:
-        raise ValueError(f"{path} is not an rsl-rl checkpoint (no actor_state_dict).")
-    return loaded
+def model_tensors(saved: dict):
+    """(name, tensor) of every network weight and statistic in a checkpoint dict (optimizer state left out)."""
+
+    def walk(prefix: str, value):
+        if isinstance(value, torch.Tensor):
+            yield prefix, value
+        elif isinstance(value, dict):
+            for key, item in value.items():
+                if "optimizer" in str(key):
+                    continue
+                yield from walk(f"{prefix}.{key}" if prefix else str(key), item)
+
+    for key, value in saved.items():
+        if key.endswith("state_dict") and "optimizer" not in key:
+            yield from walk(key, value)

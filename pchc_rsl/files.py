@@ -1,0 +1,26 @@
+"""Writing files a person keeps (checkpoints, exported policies): atomic, with the usual permissions.
+
+A temp file beside the target is renamed over it, so a crash never leaves half a file. The temp file is created by
+the writer itself (not by ``tempfile``, which makes 0600 files), so the result gets the mode the umask gives every
+other file (0644 under the usual umask 022), and its name never ends up inside the file.
+"""
+
+from __future__ import annotations
+
+import os
+import uuid
+from collections.abc import Callable
+
+
+def atomic_write(path: str, write: Callable[[str], object]) -> str:
+    """Call ``write(tmp_path)`` for a fresh path in ``path``'s folder, then rename it to ``path``. Returns ``path``."""
+    directory = os.path.dirname(os.path.abspath(path))
+    os.makedirs(directory, exist_ok=True)
+    tmp_path = os.path.join(directory, f"{os.path.basename(path)}.{uuid.uuid4().hex[:8]}.tmp")
+    try:
+        write(tmp_path)
+        os.replace(tmp_path, path)
+    finally:
+        if os.path.exists(tmp_path):
+            os.remove(tmp_path)
+    return path

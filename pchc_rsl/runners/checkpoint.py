@@ -1,0 +1,30 @@
+"""Reading a checkpoint file with errors that name it: one line saying which file and what is wrong with it."""
+
+from __future__ import annotations
+
+import os
+
+import torch
+
+
+def load_checkpoint(path: str, map_location: str | None = "cpu") -> dict:
+    """``torch.load(weights_only=True)`` of a pchc-train checkpoint; ValueError (FileNotFoundError) naming the file
+    when it is missing, empty, truncated, not a torch file, or not an rsl-rl checkpoint."""
+    if not os.path.isfile(path):
+        raise FileNotFoundError(f"No checkpoint at {path}" + (" (a folder)." if os.path.isdir(path) else "."))
+    size = os.path.getsize(path)
+    if size == 0:
+        raise ValueError(f"{path} is empty (0 bytes), not a checkpoint: was its writing interrupted?")
+    try:
+        loaded = torch.load(path, map_location=map_location, weights_only=True)
+    except Exception as error:  # torch raises RuntimeError, EOFError, UnpicklingError, KeyError... for bad files
+        reason = (str(error).strip().splitlines() or [""])[0][:160]
+        if "zip archive" in reason or "central directory" in reason:
+            what = "is truncated or is not a PyTorch checkpoint (not a complete zip archive)"
+        else:
+            what = "cannot be read as a PyTorch checkpoint"
+        raise ValueError(f"{path} ({size} bytes) {what}: {type(error).__name__}: {reason}") from None
+    if not isinstance(loaded, dict) or "actor_state_dict" not in loaded:
+        raise ValueError(f"{path} is a torch file but not an rsl-rl checkpoint (no actor_state_dict).")
+    return loaded
+

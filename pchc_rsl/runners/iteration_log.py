@@ -1,0 +1,94 @@
+"""Training output a person reads: one line per iteration instead of rsl-rl's 28-line block.
+
+The scalars written to TensorBoard (or W&B, Neptune) are rsl-rl's own: this Logger lets rsl-rl's ``log`` do all the
+writing and only decides what reaches the console. rsl-rl's full block is still printed with ``verbose``, without
+its terminal colour codes so that it reads well in a log file.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import datetime
+import io
+import re
+import statistics
+from collections.abc import Callable
+
+from rsl_rl.utils.logger import Logger
+
+ANSI_ESCAPE = re.compile(r"\x1b\[[0-9;]*m")
+OBJECTIVE_PREFIX = "Episode_Objective/"
+FALL_KEY = "Episode_Termination/fall"
+
+
+class IterationLogger(Logger):
+    """rsl-rl's Logger printing ``it 12/59 | reward ... | <objective> ... | falls ..% | steps/s | ETA``.
+
+    ``guard(it, loss_dict)`` runs first at every iteration (the runner's non-finite check): it may raise to stop
+    training before anything of that iteration is logged or saved. Per-critic diagnostics (``value_error/<group>``,
+    ``advantage_std/<group>``: keys with a '/') are not losses: they go to ``Critic/<key>``, not ``Loss/<key>``.
+    """
+
+    def __init__(self, *args, verbose: bool = False, guard: Callable[[int, dict], None] | None = None, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.verbose = verbose
+        self.guard = guard
+        self.iteration_times: list[float] = []
+
+    def init_logging_writer(self) -> None:
+        """rsl-rl's, without its 'Storing git diff' prints unless verbose."""
+        with contextlib.redirect_stdout(io.StringIO()) if not self.verbose else contextlib.nullcontext():
+            super().init_logging_writer()
+
+    def log(self, it: int, start_it: int, total_it: int, collect_time: float, learn_time: float, loss_dict: dict,
+            **kwargs) -> None:
+        if self.guard is not None:
+            self.guard(it, loss_dict)
+        losses = {k: v for k, v in loss_dict.items() if "/" not in k}
+        diagnostics = {k: v for k, v in loss_dict.items() if "/" in k}
+        line = self.summary_line(it, start_it, total_it, collect_time + learn_time)  # before rsl-rl clears extras
+        block = io.StringIO()
+        with contextlib.redirect_stdout(block):
+            super().log(it=it, start_it=start_it, total_it=total_it, collect_time=collect_time,
+                        learn_time=learn_time, loss_dict=losses, **kwargs)
+        if self.writer is None:
+            return
+        for key, value in diagnostics.items():
+            self.writer.add_scalar(f"Critic/{key}", value, it)
+        print(line, flush=True)
+        if self.verbose:
+            print(ANSI_ESCAPE.sub("", block.getvalue()), flush=True)
+
+    def summary_line(self, it: int, start_it: int, total_it: int, iteration_time: float) -> str:
+        """Iteration, mean episode reward, each objective's mean episode sum, falls, throughput and ETA."""
+        self.iteration_times.append(iteration_time)
+        last = total_it - 1  # iterations count from 0, as the checkpoints model_<it>.pt do
+        parts = [f"it {it:>{len(str(last))}}/{last}"]
+        if self.rewbuffer:
+            parts.append(f"reward {statistics.mean(self.rewbuffer):8.3f}")
+        extras = self._episode_means()
+        objectives = [f"{k[len(OBJECTIVE_PREFIX):]} {v:8.3f}" for k, v in extras.items() if k.startswith(OBJECTIVE_PREFIX)]
+        if objectives:
+            parts.append("  ".join(objectives))
+        if FALL_KEY in extras:
+            parts.append(f"falls {100 * extras[FALL_KEY]:3.0f}%")
+        steps = self.cfg["num_steps_per_env"] * self.num_envs * self.gpu_world_size
+        parts.append(f"{steps / max(iteration_time, 1e-9):,.0f} steps/s")
+        remaining = total_it - 1 - it
+        if len(self.iteration_times) > 1 and remaining > 0:
+            # the first iteration includes start-up costs: leave it out of the estimate
+            per_iteration = statistics.median(self.iteration_times[1:][-10:])
+            parts.append(f"ETA {datetime.timedelta(seconds=round(per_iteration * remaining))}")
+        return " | ".join(parts)
+
+    def _episode_means(self) -> dict[str, float]:
+        """Mean over this iteration's finished episodes of each scalar the env logged under extras['log']."""
+        sums: dict[str, list[float]] = {}
+        for extras in self.ep_extras:
+            for key, value in extras.items():
+                try:
+                    sums.setdefault(key, []).append(float(value.float().mean()) if hasattr(value, "float")
+                                                    else float(value))
+                except (TypeError, ValueError, RuntimeError):
+                    continue
+        return {k: statistics.mean(v) for k, v in sums.items() if v}

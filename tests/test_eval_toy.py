@@ -1,0 +1,112 @@
+"""pchc-eval on the toy task (no G1 needed): the trade-off table and plot, strict JSON, inputs checked first."""
+
+import json
+import math
+import os
+
+import pytest
+import torch
+
+from pchc_rsl.cli import eval as eval_cli
+from pchc_rsl.cli import train as train_cli
+from pchc_rsl.cli.common import make_runner, restore_config
+from pchc_rsl.evaluation import TOY_EVALUATION
+
+
+@pytest.fixture(scope="module")
+def toy_checkpoint(tmp_path_factory):
+    run = tmp_path_factory.mktemp("toy") / "run"
+    train_cli.main(["--task", "toy", "--num-envs", "8", "--max-iterations", "2", "--seed", "2", "--log-dir", str(run)])
+    return run / "model_1.pt"
+
+
+def returns_by_hand(checkpoint, preferences, num_envs, seed):
+    """Per preference (in order, in one env): mean over envs of each goal's summed reward over one deterministic
+    episode (a plain loop)."""
+    cfg = restore_config(torch.load(checkpoint, weights_only=True)["config"])
+    cfg.num_envs, cfg.seed, cfg.fixed_preference = num_envs, seed, None
+    runner = make_runner(cfg)
+    runner.load(str(checkpoint))
+    policy = runner.get_inference_policy()
+    env = runner.env
+    out = []
+    for preference in preferences:
+        sums = torch.zeros(2)
+        with torch.inference_mode():
+            env.set_preference(preference)
+            env.reset() if not hasattr(env, "_reset") else env._reset(torch.arange(env.num_envs))
+            obs = env.get_observations()
+            for _ in range(env.max_episode_length):
+                obs, _, _, extras = env.step(policy(obs))
+                sums += extras["reward_groups"][:, 1:].mean(0)
+        out.append(sums.tolist())
+    return out
+
+
+def test_eval_writes_the_toy_trade_off(toy_checkpoint, tmp_path, capsys):
+    out = tmp_path / "eval"
+    eval_cli.main([str(toy_checkpoint), "--num-envs", "4", "--preferences", "3", "--output", str(out)])
+    results = json.loads((out / "results.json").read_text(), parse_constant=lambda c: pytest.fail(f"bare {c}"))
+    rows = results["results"][0]["rows"]
+    assert [r["preference"] for r in rows] == [[1.0, 0.0], [0.5, 0.5], [0.0, 1.0]]
+    expected = returns_by_hand(toy_checkpoint, [(1.0, 0.0), (0.5, 0.5), (0.0, 1.0)], 4, 0)
+    for row, by_hand in zip(rows, expected):
+        assert [row["metrics"]["goal_a"], row["metrics"]["goal_b"]] == pytest.approx(by_hand, rel=1e-5)
+    assert "| run/model_1.pt | (0.50, 0.50) |" in (out / "table.md").read_text()
+    assert (out / "pareto.png").stat().st_size > 0
+    last = capsys.readouterr().out.strip().splitlines()[-1]
+    assert last == f"pchc-eval: wrote {out / 'results.json'}, {out / 'table.md'}, {out / 'pareto.png'}"
+    assert sorted(os.listdir(out)) == ["pareto.png", "results.json", "table.md"]
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--num-envs", "0"], "--num-envs: must be a whole number >= 1, got 0"),
+    (["--episodes", "0"], "--episodes: must be a whole number >= 1, got 0"),
+    (["--episode-length", "0"], "--episode-length: must be a finite number > 0, got 0"),
+    (["--episode-length", "nan"], "--episode-length: must be a finite number > 0"),
+    (["--preferences", "1"], "--preferences: must be a whole number >= 2"),
+    (["--preference", "0.5,0.6"], "--preference 0.5,0.6: Preference weights must sum to 1"),
+    (["--preference", "1,0,0"], "--preference 1,0,0: A preference must have shape [2]"),
+    (["--preference", "a,b"], "--preference: must be comma-separated numbers"),
+    (["--switch"], "--switch measures falls"),
+])
+def test_bad_arguments_are_refused_before_any_work(toy_checkpoint, tmp_path, capsys, argv, message):
+    with pytest.raises(SystemExit) as exit_:
+        eval_cli.main([str(toy_checkpoint), "--output", str(tmp_path / "eval"), *argv])
+    text = capsys.readouterr().err.strip() or str(exit_.value.code)
+    assert message in text and "\n" not in text
+    assert not (tmp_path / "eval").exists()
+
+
+def test_checkpoints_of_different_tasks_are_refused_before_evaluating(toy_checkpoint, tmp_path, monkeypatch):
+    other = torch.load(toy_checkpoint, weights_only=True)
+    other["config"]["task"] = "g1-walk"
+    torch.save(other, tmp_path / "walk.pt")
+    monkeypatch.setattr(eval_cli, "evaluate_checkpoint", lambda *a: pytest.fail("evaluated before checking"))
+    with pytest.raises(SystemExit, match=r"different tasks \['g1-walk', 'toy'\]"):
+        eval_cli.main([str(toy_checkpoint), str(tmp_path / "walk.pt"), "--output", str(tmp_path / "eval")])
+    assert not (tmp_path / "eval").exists()
+
+
+def test_undefined_metrics_are_null_and_an_empty_plot_says_why(tmp_path):
+    nan = float("nan")
+    rows = [{"preference": [1.0, 0.0], "metrics": {"goal_a": nan, "goal_b": -3.0}},
+            {"preference": [0.0, 1.0], "metrics": {"goal_a": nan, "goal_b": float("inf")}}]
+    results = [{"name": "run/model_0.pt", "checkpoint": "x", "rows": rows,
+                "front": {"hypervolume": 0.0, "sparsity": nan, "reference_point": [-60.0, -60.0], "num_points": 0}}]
+
+    class Args:
+        output, seed = str(tmp_path / "eval"), 0
+
+    written = eval_cli.write_outputs(results, TOY_EVALUATION, {}, None, Args)
+    text = (tmp_path / "eval" / "results.json").read_text()
+    assert "NaN" not in text and "Infinity" not in text
+    saved = json.loads(text)["results"][0]
+    assert saved["rows"][0]["metrics"] == {"goal_a": None, "goal_b": -3.0}
+    assert saved["front"]["sparsity"] is None
+    assert written[-1].endswith("pareto.png")
+    reason = eval_cli._empty_front_reason(results, TOY_EVALUATION)
+    assert "goal_a" in reason and "undefined at every preference" in reason
+    assert eval_cli._empty_front_reason([{**results[0], "rows": [
+        {"preference": [1.0, 0.0], "metrics": {"goal_a": -1.0, "goal_b": -2.0}}]}], TOY_EVALUATION) == ""
+    assert math.isnan(rows[0]["metrics"]["goal_a"])  # the caller's results are not changed

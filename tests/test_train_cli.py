@@ -1,0 +1,283 @@
+"""pchc-train on bad input, on resume, on Ctrl-C and on NaN: one-line errors, no lost or overwritten files."""
+
+import hashlib
+import json
+import os
+
+import pytest
+import torch
+
+from pchc_rsl.algorithms import MultiCriticPPO
+from pchc_rsl.cli import export_onnx as export_cli
+from pchc_rsl.cli import train as train_cli
+from pchc_rsl.envs.toy import ToyEnv
+
+SMALL = ["--task", "toy", "--num-envs", "4", "--seed", "3"]
+
+
+def digest(path):
+    return hashlib.sha256(open(path, "rb").read()).hexdigest()
+
+
+def one_line_exit(capsys, argv, code=None):
+    """Run pchc-train expecting it to stop; return its one-line message."""
+    with pytest.raises(SystemExit) as exit_:
+        train_cli.main(argv)
+    err = capsys.readouterr().err.strip()
+    message = err or str(exit_.value.code)
+    assert "\n" not in message and "Traceback" not in message, message
+    if code is not None:  # SystemExit("message") exits with status 1
+        assert (1 if isinstance(exit_.value.code, str) else exit_.value.code) == code
+    return message
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--num-envs", "0"], "--num-envs: must be a whole number >= 1, got 0"),
+    (["--num-envs", "-1"], "--num-envs: must be a whole number >= 1, got -1"),
+    (["--max-iterations", "0"], "--max-iterations: must be a whole number >= 1, got 0"),
+    (["--max-iterations", "-5"], "--max-iterations: must be a whole number >= 1"),
+    (["--seed", "-1"], "--seed: must be a whole number in"),
+    (["--num-envs", "two"], "--num-envs: must be a whole number, got 'two'"),
+    (["num_envs=0"], "num_envs must be a whole number >= 1, got 0"),
+    (["runner.save_interval=0"], "runner.save_interval must be a whole number >= 1"),
+    (["runner.algorithm.learning_rate=nan"], "learning_rate must be a finite number > 0"),
+    (["runner.algorithm.gamma=1.5"], "gamma must be in [0, 1]"),
+    (["--fixed-preference", "0.5,0.6"], "sum to 1"),
+    (["--fixed-preference", "1,0,0"], "shape"),
+    (["--device", "tpu"], "device 'tpu'"),
+    (["--logger", "mlflow"], "--logger: invalid choice"),
+])
+def test_bad_arguments_stop_before_any_work(tmp_path, monkeypatch, capsys, argv, message):
+    monkeypatch.chdir(tmp_path)
+    assert message in one_line_exit(capsys, ["--task", "toy", *argv])
+    assert not os.listdir(tmp_path)  # nothing written, not even an empty logs/
+
+
+@pytest.mark.skipif(torch.cuda.is_available(), reason="this torch has CUDA")
+def test_cuda_on_a_cpu_only_torch_says_so(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert "sees no CUDA GPU; use --device cpu" in one_line_exit(capsys, ["--task", "toy", "--device", "cuda:0"])
+
+
+def test_a_run_that_fails_while_starting_leaves_no_folder(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    message = one_line_exit(capsys, [*SMALL, "--max-iterations", "1", "runner.actor.class_name=no_such_module:Actor"])
+    assert "no_such_module" in message
+    assert not os.listdir(tmp_path)
+
+
+def test_overrides_shape_the_networks_and_are_saved(tmp_path, capsys):
+    run = tmp_path / "run"
+    train_cli.main([*SMALL, "--max-iterations", "1", "--log-dir", str(run), "runner.actor.hidden_dims=16,16",
+                    "runner.algorithm.gamma=0.9"])
+    checkpoint = torch.load(run / "model_0.pt", weights_only=True)
+    experts = checkpoint["actor_state_dict"]["mlp.experts.weights.0"]
+    assert experts.shape[-1] == 16  # the first expert layer has 16 units instead of the toy's 64
+    for config in (checkpoint["config"], json.loads((run / "config.json").read_text())):
+        assert config["runner"]["actor"]["hidden_dims"] == [16, 16]
+        assert config["runner"]["algorithm"]["gamma"] == 0.9
+        assert "runner.algorithm.gamma=0.9" in config["overrides"]
+
+
+def test_the_log_is_one_line_per_iteration_and_ends_with_real_commands(tmp_path, capsys):
+    run = tmp_path / "run"
+    train_cli.main([*SMALL, "--max-iterations", "3", "--log-dir", str(run)])
+    out = capsys.readouterr().out
+    assert "\x1b" not in out
+    lines = [line for line in out.splitlines() if line.startswith("it ")]
+    assert [line.split(" | ")[0] for line in lines] == ["it 0/2", "it 1/2", "it 2/2"]
+    assert all("reward" in line and "goal_a" in line and "goal_b" in line and "steps/s" in line for line in lines)
+    assert f"tensorboard --logdir {run}" in out
+    export_line = next(line for line in out.splitlines() if "pchc-export-onnx" in line)
+    command = export_line.split("pchc-export-onnx", 1)[1].split()
+    export_cli.main(command)  # the printed command works as printed
+    assert os.path.isfile(command[-1])
+    assert len(out.splitlines()) < 12
+
+
+def test_checkpoints_get_the_umask_mode(tmp_path):
+    umask = os.umask(0)
+    os.umask(umask)
+    train_cli.main([*SMALL, "--max-iterations", "1", "--log-dir", str(tmp_path / "run")])
+    assert (tmp_path / "run" / "model_0.pt").stat().st_mode & 0o777 == 0o666 & ~umask
+
+
+@pytest.fixture(scope="module")
+def gated_run(tmp_path_factory):
+    """3 iterations (model_0, model_2) of a gated-actor, fixed-preference baseline."""
+    run = tmp_path_factory.mktemp("gated") / "run"
+    train_cli.main([*SMALL, "--max-iterations", "3", "--actor", "gated", "--fixed-preference", "0.9,0.1",
+                    "runner.save_interval=2", "--log-dir", str(run)])
+    return run
+
+
+def test_resume_takes_the_checkpoints_config_and_continues_in_a_new_folder(gated_run, tmp_path, capsys):
+    before = {p.name: digest(p) for p in gated_run.iterdir() if p.is_file()}
+    capsys.readouterr()
+    train_cli.main(["--resume", str(gated_run / "model_2.pt"), "--max-iterations", "2", "--num-envs", "6",
+                    "--log-dir", str(tmp_path / "more")])
+    out = capsys.readouterr().out
+    assert "overridden: runner.max_iterations 3 -> 2, num_envs 4 -> 6" in out
+    assert {p.name: digest(p) for p in gated_run.iterdir() if p.is_file()} == before  # nothing rewritten
+    # 3 iterations (0-2) + 2 more = iterations 3 and 4
+    assert sorted(p.name for p in (tmp_path / "more").glob("model_*.pt")) == ["model_4.pt"]
+    checkpoint = torch.load(tmp_path / "more" / "model_4.pt", weights_only=True)
+    assert checkpoint["iter"] == 4
+    config = checkpoint["config"]
+    assert config["runner"]["actor"]["class_name"] == "pchc_rsl.modules:GatedMoEActor"  # not repeated on resume
+    assert config["fixed_preference"] == pytest.approx([0.9, 0.1])
+    assert config["num_envs"] == 6 and config["resumed_from"] == str(gated_run / "model_2.pt")
+
+
+def test_resume_never_writes_into_an_existing_run(gated_run, capsys):
+    before = {p.name: digest(p) for p in gated_run.iterdir() if p.is_file()}
+    message = one_line_exit(capsys, ["--resume", str(gated_run / "model_2.pt"), "--log-dir", str(gated_run)])
+    assert "already holds" in message and "new --log-dir" in message
+    assert {p.name: digest(p) for p in gated_run.iterdir() if p.is_file()} == before
+
+
+def test_a_reused_log_dir_is_refused(gated_run, capsys):
+    assert "already holds" in one_line_exit(capsys, [*SMALL, "--log-dir", str(gated_run)])
+
+
+def interrupt_env_step_after(monkeypatch, calls):
+    """Make ToyEnv.step raise KeyboardInterrupt (as Ctrl-C does) at its ``calls``-th call."""
+    original = ToyEnv.step
+    count = {"n": 0}
+
+    def step(self, actions):
+        count["n"] += 1
+        if count["n"] == calls:
+            raise KeyboardInterrupt
+        return original(self, actions)
+
+    monkeypatch.setattr(ToyEnv, "step", step)
+
+
+def test_ctrl_c_saves_the_last_finished_iteration(tmp_path, monkeypatch, capsys):
+    interrupt_env_step_after(monkeypatch, 2 * 20 + 5)  # the toy's rollout is 20 steps: inside iteration 2
+    run = tmp_path / "run"
+    with pytest.raises(SystemExit) as exit_:
+        train_cli.main([*SMALL, "--max-iterations", "10", "--log-dir", str(run)])
+    assert exit_.value.code == 130
+    assert sorted(p.name for p in run.glob("model_*.pt")) == ["model_0.pt", "model_1.pt"]
+    assert torch.load(run / "model_1.pt", weights_only=True)["iter"] == 1
+    out = capsys.readouterr().out
+    assert f"saved {run / 'model_1.pt'}" in out and "Traceback" not in out
+    assert not list(run.glob("*.tmp"))
+
+
+def test_ctrl_c_before_the_first_iteration_leaves_no_folder(tmp_path, monkeypatch, capsys):
+    interrupt_env_step_after(monkeypatch, 3)
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SystemExit):
+        train_cli.main([*SMALL, "--max-iterations", "10"])
+    assert not os.listdir(tmp_path)
+
+
+def test_nan_stops_training_and_keeps_the_last_good_checkpoint(tmp_path, monkeypatch, capsys):
+    original = MultiCriticPPO.update
+    count = {"n": 0}
+
+    def update(self):
+        count["n"] += 1
+        losses = original(self)
+        if count["n"] == 3:  # iteration 2 diverges
+            with torch.no_grad():
+                next(self.actor.parameters()).view(-1)[0] = float("nan")
+        return losses
+
+    monkeypatch.setattr(MultiCriticPPO, "update", update)
+    run = tmp_path / "run"
+    message = one_line_exit(capsys, [*SMALL, "--max-iterations", "5", "runner.save_interval=1", "--log-dir", str(run)],
+                            code=1)
+    assert "diverged at iteration 2" in message and f"last good checkpoint is {run / 'model_1.pt'}" in message
+    assert sorted(p.name for p in run.glob("model_*.pt")) == ["model_0.pt", "model_1.pt"]
+    weights = torch.load(run / "model_1.pt", weights_only=True)["actor_state_dict"]
+    assert all(torch.isfinite(t).all() for t in weights.values())
+
+
+def test_export_refuses_a_checkpoint_with_nan_weights(gated_run, tmp_path, capsys):
+    checkpoint = torch.load(gated_run / "model_2.pt", weights_only=True)
+    name = next(k for k, v in checkpoint["actor_state_dict"].items() if v.is_floating_point() and v.dim() > 1)
+    checkpoint["actor_state_dict"][name][0] = float("nan")
+    torch.save(checkpoint, tmp_path / "nan.pt")
+    with pytest.raises(SystemExit, match="NaN or inf"):
+        export_cli.main([str(tmp_path / "nan.pt"), "-o", str(tmp_path / "out" / "p.onnx")])
+    assert not (tmp_path / "out" / "p.onnx").exists()
+
+
+def test_export_cli_is_quiet_and_its_file_is_self_contained(gated_run, tmp_path, capfd):
+    capfd.readouterr()
+    export_cli.main([str(gated_run / "model_2.pt"), "-o", str(tmp_path / "out" / "policy.onnx")])
+    out, err = capfd.readouterr()
+    assert out == f"pchc-export-onnx: wrote {tmp_path / 'out' / 'policy.onnx'}\n" and err == ""
+    assert os.listdir(tmp_path / "out") == ["policy.onnx"]
+
+
+@pytest.mark.parametrize("content, message", [
+    (b"", "is empty (0 bytes)"),
+    (None, "is truncated or is not a PyTorch checkpoint"),
+    (b"not a checkpoint at all\n", "cannot be read as a PyTorch checkpoint"),
+    ("tensor", "not an rsl-rl checkpoint"),
+])
+def test_bad_checkpoint_files_give_one_line_naming_the_file(gated_run, tmp_path, capsys, content, message):
+    bad = tmp_path / "bad.pt"
+    if content is None:
+        whole = (gated_run / "model_2.pt").read_bytes()
+        bad.write_bytes(whole[: len(whole) // 2])
+    elif content == "tensor":
+        torch.save(torch.zeros(3), bad)
+    else:
+        bad.write_bytes(content)
+    from pchc_rsl.cli import eval as eval_cli
+
+    for main, argv in ((train_cli.main, ["--resume", str(bad)]),
+                       (export_cli.main, [str(bad), "-o", str(tmp_path / "p.onnx")]),
+                       (eval_cli.main, [str(bad), "--output", str(tmp_path / "eval")])):
+        with pytest.raises(SystemExit) as exit_:
+            main(argv)
+        text = str(exit_.value.code)
+        assert str(bad) in text and message in text and "\n" not in text, text
+    assert sorted(os.listdir(tmp_path)) == ["bad.pt"]  # no output file or folder
+
+
+@pytest.mark.parametrize("logger, writer", [
+    ("tensorboard", None), ("wandb", "WandbLogWriter"), ("neptune", "NeptuneLogWriter")])
+def test_loggers_map_to_rsl_rl_log_writers(logger, writer):
+    from rsl_rl.utils import resolve_callable
+
+    from pchc_rsl.configs import task_config
+
+    cfg = task_config("toy")
+    cfg.runner.logger, cfg.runner.logger_project = logger, "pchc"
+    chosen = cfg.runner.to_rsl_rl()["logger"]
+    if writer is None:
+        assert chosen == "tensorboard"
+    else:
+        assert resolve_callable(chosen["class_name"]).__name__ == writer and chosen["project_name"] == "pchc"
+
+
+def test_the_runner_never_replaces_a_checkpoint_it_did_not_write(gated_run, tmp_path):
+    from pchc_rsl.cli.common import make_runner
+    from pchc_rsl.configs import task_config
+
+    with pytest.raises(FileExistsError, match="already holds checkpoints"):
+        make_runner(task_config("toy"), str(gated_run))
+    cfg = task_config("toy")
+    cfg.num_envs = 4
+    runner = make_runner(cfg, str(tmp_path / "run"))
+    (tmp_path / "run" / "model_0.pt").write_bytes(b"someone else's")
+    with pytest.raises(FileExistsError, match="never replaced"):
+        runner.learn(1)
+    assert (tmp_path / "run" / "model_0.pt").read_bytes() == b"someone else's"
+
+
+def test_overrides_record_every_change_including_in_place_ones(tmp_path):
+    run = tmp_path / "run"
+    train_cli.main([*SMALL, "--max-iterations", "1", "--actor", "no-preference", "--fixed-preference", "0.5,0.5",
+                    "--log-dir", str(run)])
+    overrides = json.loads((run / "config.json").read_text())["overrides"]
+    assert 'runner.obs_groups.actor=["policy"]' in overrides
+    assert 'runner.actor.class_name="rsl_rl.models:MLPModel"' in overrides
+    assert "fixed_preference=[0.5, 0.5]" in overrides
