@@ -78,7 +78,11 @@ class ToyEnv(VecEnv):
                 "preference": self.preference.clone()}
 
     def load_state_dict(self, state: dict) -> None:
+        """Restore the generator, and the per-env state when the env count is the same (a resume may change it:
+        the new envs then start fresh episodes)."""
         self.generator.set_state(state["generator"])
+        if state["pos"].shape[0] != self.num_envs:
+            return
         for key in ("pos", "frames", "episode_length_buf", "episode_sums", "preference"):
             getattr(self, key).copy_(state[key])
 

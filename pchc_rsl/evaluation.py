@@ -271,7 +271,7 @@ def run_return_episodes(env, policy, preference, episodes: int, progress: str = 
     results, curve = [], []
     with torch.inference_mode():
         env.set_preference(preference)
-        _reset_all(env)
+        env.reset()
         obs = env.get_observations()
         steps = 0
         while (finished < episodes).any():
@@ -289,11 +289,3 @@ def run_return_episodes(env, policy, preference, episodes: int, progress: str = 
     if progress:
         _progress(progress, 1, 1, end=True)
     return results, np.array(curve)
-
-
-def _reset_all(env) -> None:
-    """Reset every env: the public ``reset()`` where the env has one, else the older ``_reset(env_ids)``."""
-    if hasattr(env, "_reset"):
-        env._reset(torch.arange(env.num_envs))
-    else:
-        env.reset()

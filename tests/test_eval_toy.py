@@ -34,7 +34,7 @@ def returns_by_hand(checkpoint, preferences, num_envs, seed):
         sums = torch.zeros(2)
         with torch.inference_mode():
             env.set_preference(preference)
-            env.reset() if not hasattr(env, "_reset") else env._reset(torch.arange(env.num_envs))
+            env.reset()
             obs = env.get_observations()
             for _ in range(env.max_episode_length):
                 obs, _, _, extras = env.step(policy(obs))
@@ -45,7 +45,7 @@ def returns_by_hand(checkpoint, preferences, num_envs, seed):
 
 def test_eval_writes_the_toy_trade_off(toy_checkpoint, tmp_path, capsys):
     out = tmp_path / "eval"
-    eval_cli.main([str(toy_checkpoint), "--num-envs", "4", "--preferences", "3", "--output", str(out)])
+    eval_cli.main([str(toy_checkpoint), "--num-envs", "4", "--episodes", "1", "--preferences", "3", "--output", str(out)])
     results = json.loads((out / "results.json").read_text(), parse_constant=lambda c: pytest.fail(f"bare {c}"))
     rows = results["results"][0]["rows"]
     assert [r["preference"] for r in rows] == [[1.0, 0.0], [0.5, 0.5], [0.0, 1.0]]

@@ -18,6 +18,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shutil
 import subprocess
 import sys
 import time
@@ -70,7 +71,9 @@ def study_cells(seeds: list[int], steps: int) -> list[Cell]:
 
 def run_cell(cell: Cell, root: str) -> None:
     folder = cell.folder(root)
-    os.makedirs(folder, exist_ok=True)
+    if os.path.isdir(folder):  # a cell interrupted before its result.json: start it again from scratch
+        shutil.rmtree(folder)
+    os.makedirs(folder)
     command = [sys.executable, os.path.join(HERE, "mo_benchmark.py"), "--task", cell.task, "--seed", str(cell.seed),
                "--out", folder, *cell.args]
     start = time.time()

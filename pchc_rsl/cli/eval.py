@@ -38,8 +38,11 @@ def build_parser() -> argparse.ArgumentParser:
                         help="evenly spaced preferences from (1,0) to (0,1) (default 5)")
     parser.add_argument("--preference", action="append", type=arguments.preference, metavar="L1,L2",
                         help="explicit preference(s) instead; repeatable")
-    parser.add_argument("--num-envs", type=arguments.positive_int, default=16)
-    parser.add_argument("--episodes", type=arguments.positive_int, default=1, help="episodes per env and preference")
+    parser.add_argument("--num-envs", type=arguments.positive_int, default=64,
+                        help="parallel envs (default 64: with --episodes 2, 128 episodes per preference, a few "
+                             "minutes on 2 CPU cores; the paper uses 1000 envs)")
+    parser.add_argument("--episodes", type=arguments.positive_int, default=2,
+                        help="episodes per env and preference (default 2)")
     parser.add_argument("--seed", type=arguments.seed, default=0)
     parser.add_argument("--episode-length", type=arguments.positive_float, help="override the episode length (s)")
     parser.add_argument("--switch", action="store_true", help="also switch lambda (0,1) -> (1,0) mid-episode (G1)")
@@ -118,6 +121,7 @@ def evaluate_checkpoint(path: str, config: dict, preferences, args):
     evaluation = TASK_EVALUATION[task]
     name = os.path.basename(os.path.dirname(os.path.abspath(path))) + "/" + os.path.basename(path)
     metrics = {p: {} for p in preferences}
+    counts = {p: 0 for p in preferences}
     curve_prefs = {preferences[0], preferences[len(preferences) // 2], preferences[-1]}
     curves, switch = {}, None
     presets = evaluation.push_presets or [None]
@@ -140,13 +144,14 @@ def evaluate_checkpoint(path: str, config: dict, preferences, args):
                 metrics[lam].update({f"{preset}/{k}": v for k, v in summary.items()})
             if preset_index == 0:
                 metrics[lam].update(summary)
+                counts[lam] = len(episodes)
                 if lam in curve_prefs:
                     curves[lam] = curve
         if preset_index == 0 and args.switch:
             env = runner.env
             switch = switching_run(env, policy, (0.0, 1.0), (1.0, 0.0), env.max_episode_length // 2)
             switch["objectives"] = list(env.cfg.objective_names)
-    rows = [{"preference": list(lam), "metrics": metrics[lam]} for lam in preferences]
+    rows = [{"preference": list(lam), "metrics": metrics[lam], "episodes": counts[lam]} for lam in preferences]
     result = {"name": name, "checkpoint": os.path.abspath(path), "rows": rows}
     result["front"] = front_summary(front_points(rows, evaluation), evaluation)
     return result, curves, switch

@@ -157,7 +157,7 @@ def train(cfg, config: dict, log_dir: str, args) -> None:
     try:
         runner = make_runner(cfg, log_dir, verbose=args.verbose, config=config)
         if args.resume:
-            runner.load(args.resume)
+            runner.load(args.resume, resume=True)
         first = runner.current_learning_iteration
         last = first + cfg.runner.max_iterations - 1
         print(f"{PROG}: {cfg.name}, {cfg.num_envs} envs on {cfg.device}, iterations {first}-{last} -> {log_dir}",

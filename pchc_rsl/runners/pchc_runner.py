@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import os
 
+import numpy as np
 import torch
 
 from rsl_rl.env import VecEnv
@@ -123,6 +124,7 @@ class PCHCRunner(OnPolicyRunner):
         saved["iter"] = self.current_learning_iteration
         saved["infos"] = infos
         saved["config"] = self.config
+        saved["training_state"] = self.training_state()
         self._write_checkpoint(path, saved)
         self.logger.save_model(path, self.current_learning_iteration)
 
@@ -137,11 +139,39 @@ class PCHCRunner(OnPolicyRunner):
             self.written.append(path)
         self.last_good_checkpoint = path
 
+    def training_state(self) -> dict:
+        """What continuing the run needs beyond the networks: the random number streams (torch, numpy, and the
+        env's own generators) and the env's evolving state (e.g. the fall-recovery curriculum)."""
+        name, key, position, has_gauss, cached_gaussian = np.random.get_state()
+        numpy_rng = [name, torch.from_numpy(key.astype(np.int64)), int(position), int(has_gauss), float(cached_gaussian)]
+        state = {"torch_rng": torch.get_rng_state(), "numpy_rng": numpy_rng}
+        if torch.cuda.is_available():
+            state["cuda_rng"] = torch.cuda.get_rng_state_all()
+        if hasattr(self.env, "state_dict"):
+            state["env"] = self.env.state_dict()
+        return state
+
+    def restore_training_state(self, loaded: dict) -> None:
+        """Continue the streams and env state saved with the checkpoint (a resumed run; not for evaluation, whose
+        env and seed are its own). Checkpoints without them are accepted: the run then continues from new streams."""
+        state = loaded.get("training_state")
+        if not state:
+            return
+        torch.set_rng_state(state["torch_rng"])
+        name, key, position, has_gauss, cached_gaussian = state["numpy_rng"]
+        np.random.set_state((name, key.numpy().astype(np.uint32), position, has_gauss, cached_gaussian))
+        if "cuda_rng" in state and torch.cuda.is_available():
+            torch.cuda.set_rng_state_all(state["cuda_rng"])
+        if "env" in state and hasattr(self.env, "load_state_dict"):
+            self.env.load_state_dict(state["env"])
+
     def load(
-        self, path: str, load_cfg: dict | None = None, strict: bool = True, map_location: str | None = None
+        self, path: str, load_cfg: dict | None = None, strict: bool = True, map_location: str | None = None,
+        resume: bool = False,
     ) -> dict | None:
         """Load a checkpoint written by ``save``; refuse one trained for another task. Training continues with the
-        iteration after the checkpoint's (model_9.pt + 10 iterations ends at model_19.pt)."""
+        iteration after the checkpoint's (model_9.pt + 10 iterations ends at model_19.pt); ``resume=True`` also
+        continues its random streams and env state, so 10 + 10 iterations equal 20 in one go."""
         loaded = load_checkpoint(path, map_location or self.device)
         theirs, ours = loaded.get("config", {}).get("task"), self.config.get("task")
         if theirs is not None and ours is not None and theirs != ours:
@@ -155,6 +185,8 @@ class PCHCRunner(OnPolicyRunner):
             ) from error
         if load_iteration:
             self.current_learning_iteration = loaded["iter"] + 1
+        if resume:
+            self.restore_training_state(loaded)
         self.last_good_checkpoint = path
         return loaded["infos"]
 
