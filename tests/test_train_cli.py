@@ -281,3 +281,22 @@ def test_overrides_record_every_change_including_in_place_ones(tmp_path):
     assert 'runner.obs_groups.actor=["policy"]' in overrides
     assert 'runner.actor.class_name="rsl_rl.models:MLPModel"' in overrides
     assert "fixed_preference=[0.5, 0.5]" in overrides
+
+
+def test_threads_are_set_for_torch_and_the_physics_and_printed(tmp_path, capsys):
+    from pchc_rsl.configs import task_config
+    from pchc_rsl.threads import apply_threads, available_cores
+
+    previous = torch.get_num_threads()
+    try:
+        cfg = task_config("g1-walk-fast")
+        line = apply_threads(cfg, 1)
+        assert torch.get_num_threads() == 1 and cfg.env.num_threads == 1
+        assert line.startswith(f"threads: 1 of {available_cores()} cores (MuJoCo physics")
+        toy = task_config("toy")
+        assert "torch threads" in apply_threads(toy, None) and torch.get_num_threads() == available_cores()
+        assert "expect slowdowns" in apply_threads(toy, available_cores() + 1)
+        train_cli.main(["--task", "toy", "--max-iterations", "1", "--threads", "1", "--log-dir", str(tmp_path / "r")])
+        assert f"threads: 1 of {available_cores()} cores" in capsys.readouterr().out
+    finally:
+        torch.set_num_threads(previous)

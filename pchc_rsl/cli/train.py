@@ -36,6 +36,9 @@ def build_parser(task_help: str = "") -> argparse.ArgumentParser:
                         "iterations: model_9.pt + 10 ends at model_19.pt")
     parser.add_argument("--seed", type=arguments.seed, help="random seed (default: the task's)")
     parser.add_argument("--device", help="torch device, e.g. cpu or cuda:0 (default: the task's)")
+    parser.add_argument("--threads", type=arguments.positive_int,
+                        help="CPU threads for the physics (while collecting) and torch (while learning); default: "
+                             "the cores this process may use")
     parser.add_argument("--actor", choices=sorted(ACTOR_CLASSES), help="actor variant (default: pci)")
     parser.add_argument("--fixed-preference", type=arguments.preference, metavar="L1,L2",
                         help="hold lambda constant during training (baselines); required by --actor no-preference")
@@ -151,10 +154,12 @@ def train(cfg, config: dict, log_dir: str, args) -> None:
     from pchc_rsl.cli.common import make_runner
     from pchc_rsl.cli.run_folder import checkpoints_in, first_missing_folder, remove_if_unused
     from pchc_rsl.runners import NonFiniteTraining, TrainingInterrupted
+    from pchc_rsl.threads import apply_threads
 
     created = first_missing_folder(log_dir)
     start = time.time()
     try:
+        print(f"{PROG}: {apply_threads(cfg, args.threads)}", flush=True)
         runner = make_runner(cfg, log_dir, verbose=args.verbose, config=config)
         if args.resume:
             runner.load(args.resume, resume=True)
