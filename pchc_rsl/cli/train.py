@@ -58,6 +58,10 @@ def build_parser(task_help: str = "") -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> None:
+    from pchc_rsl.distributed import world
+
+    if world()[1] != 0:  # torchrun: rank 0 speaks for the run; the others print only errors
+        sys.stdout = open(os.devnull, "w")  # noqa: SIM115 - for the life of the process
     argv = sys.argv[1:] if argv is None else list(argv)
     args = build_parser(_task_help(argv)).parse_args(argv)
     _take_overrides_from_motion_files(args)
@@ -153,6 +157,7 @@ def train(cfg, config: dict, log_dir: str, args) -> None:
     """Build, train, and close with a summary; a failed run that saved no checkpoint leaves no folder behind."""
     from pchc_rsl.cli.common import make_runner
     from pchc_rsl.cli.run_folder import checkpoints_in, first_missing_folder, remove_if_unused
+    from pchc_rsl.distributed import DistributedSetupError
     from pchc_rsl.runners import NonFiniteTraining, TrainingInterrupted
     from pchc_rsl.threads import apply_threads
 
@@ -180,7 +185,7 @@ def train(cfg, config: dict, log_dir: str, args) -> None:
     except NonFiniteTraining as stop:
         remove_if_unused(log_dir, created)
         raise SystemExit(f"{PROG}: {stop}") from None
-    except (ValueError, FileNotFoundError, FileExistsError, ImportError) as error:
+    except (ValueError, FileNotFoundError, FileExistsError, ImportError, DistributedSetupError) as error:
         remove_if_unused(log_dir, created)
         if args.verbose:
             raise

@@ -11,6 +11,7 @@ import torch
 from rsl_rl.env import VecEnv
 from rsl_rl.runners import OnPolicyRunner
 
+from pchc_rsl.distributed import init_process_group, world
 from pchc_rsl.export import export_onnx
 from pchc_rsl.files import atomic_write
 from pchc_rsl.finite import first_non_finite_tensor, first_non_finite_value
@@ -115,6 +116,22 @@ class PCHCRunner(OnPolicyRunner):
             self.current_learning_iteration = self.completed_iteration
             self.save(path)
         return path
+
+    # ---- several processes -------------------------------------------------------------------------------------
+
+    def _configure_multi_gpu(self) -> None:
+        """rsl-rl's multi-GPU setup (NCCL, one GPU per rank); on the CPU the same scheme over Gloo."""
+        world_size, rank, local_rank = world()
+        if world_size > 1 and torch.device(self.device).type == "cuda":
+            init_process_group("nccl", rank, world_size)  # a one-line error when NCCL cannot start
+            return super()._configure_multi_gpu()
+        self.gpu_world_size, self.gpu_global_rank, self.gpu_local_rank = world_size, rank, local_rank
+        self.is_distributed = world_size > 1
+        if not self.is_distributed:
+            self.cfg["multi_gpu"] = None
+            return
+        self.cfg["multi_gpu"] = {"global_rank": rank, "local_rank": local_rank, "world_size": world_size}
+        init_process_group("gloo", rank, world_size)
 
     # ---- checkpoints -------------------------------------------------------------------------------------------
 

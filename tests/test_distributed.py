@@ -1,0 +1,60 @@
+"""Two training processes on CPU (torchrun, Gloo): identical parameters after updates, different envs per rank."""
+
+import os
+import subprocess
+import sys
+
+import torch
+
+WORKER = '''
+import sys, torch
+from pchc_rsl.cli.common import make_runner
+from pchc_rsl.configs import task_config
+from pchc_rsl.distributed import world
+cfg = task_config("toy")
+cfg.num_envs = 8
+runner = make_runner(cfg)
+first_obs = runner.env.get_observations()["policy"].clone()
+runner.learn(2)
+_, rank, _ = world()
+torch.save({"actor": runner.alg.actor.state_dict(), "critic": runner.alg.critic.state_dict(),
+            "value_normalizer": runner.alg.value_normalizer.state_dict(), "first_obs": first_obs,
+            "seed": cfg.seed}, sys.argv[1] + f"/rank{rank}.pt")
+'''
+
+
+def test_two_cpu_processes_keep_identical_parameters(tmp_path):
+    script = tmp_path / "worker.py"
+    script.write_text(WORKER)
+    env = {**os.environ, "OMP_NUM_THREADS": "1"}
+    result = subprocess.run(
+        [sys.executable, "-m", "torch.distributed.run", "--standalone", "--nproc_per_node=2", str(script),
+         str(tmp_path)], capture_output=True, text=True, env=env, timeout=300)
+    assert result.returncode == 0, result.stderr[-2000:]
+    ranks = [torch.load(tmp_path / f"rank{r}.pt", weights_only=True) for r in (0, 1)]
+    assert [r["seed"] for r in ranks] == [1, 2]  # each rank its own seed ...
+    assert not torch.equal(ranks[0]["first_obs"], ranks[1]["first_obs"])  # ... and its own envs
+    for part in ("actor", "critic", "value_normalizer"):
+        for name, tensor in ranks[0][part].items():
+            assert torch.equal(tensor, ranks[1][part][name]), f"{part}.{name} differs between the ranks"
+    # learning happened: the parameters moved away from rank 0's initial ones
+    torch.manual_seed(1)
+    from pchc_rsl.cli.common import make_runner
+    from pchc_rsl.configs import task_config
+
+    cfg = task_config("toy")
+    cfg.num_envs = 8
+    initial = make_runner(cfg).alg.actor.state_dict()
+    assert any(not torch.equal(t, ranks[0]["actor"][n]) for n, t in initial.items() if t.is_floating_point())
+
+
+def test_a_world_that_cannot_start_is_one_line(tmp_path):
+    env = {k: v for k, v in os.environ.items() if k not in ("MASTER_ADDR", "MASTER_PORT")}
+    env.update(WORLD_SIZE="2", RANK="0", LOCAL_RANK="0", OMP_NUM_THREADS="1")
+    result = subprocess.run([sys.executable, "-m", "pchc_rsl.cli.train", "--task", "toy", "--log-dir",
+                             str(tmp_path / "run")], capture_output=True, text=True, env=env, timeout=120)
+    assert result.returncode != 0
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "could not start the 2-process gloo world as rank 0" in lines[0], result.stderr
+    assert "torchrun" in lines[0]
+    assert not (tmp_path / "run").exists()
