@@ -39,6 +39,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--episode-length", type=float, help="override the episode length (s)")
     parser.add_argument("--switch", action="store_true", help="also switch lambda (0,1) -> (1,0) mid-episode")
     parser.add_argument("--output", default="eval")
+    parser.add_argument("--video", action="store_true", help="also write a video per checkpoint (see pchc-play)")
     return parser
 
 
@@ -50,6 +51,10 @@ def main(argv: list[str] | None = None) -> None:
         else evenly_spaced_preferences(args.preferences)
     )
     os.makedirs(args.output, exist_ok=True)
+    if args.video:  # first: a headless run must pick MUJOCO_GL=egl before mujoco is imported
+        from pchc_rsl.cli.play import write_eval_videos
+
+        write_eval_videos(args.checkpoints, preferences, args)
     results, tasks, curves, switching = [], set(), {}, None
     for path in args.checkpoints:
         result, task, curve, switch = evaluate_checkpoint(path, preferences, args)
