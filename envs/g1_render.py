@@ -59,11 +59,12 @@ def add_push_arrow(scene: mujoco.MjvScene, base_pos: np.ndarray, direction: np.n
     if scene.ngeom >= scene.maxgeom:
         return
     d = np.array([direction[0], direction[1], 0.0])
-    end = np.asarray(base_pos, dtype=float) - 0.12 * d
-    start = end - 0.6 * d
+    end = np.asarray(base_pos, dtype=float) - 0.15 * d
+    start = end - 0.8 * d
     geom = scene.geoms[scene.ngeom]
     mujoco.mjv_initGeom(geom, mujoco.mjtGeom.mjGEOM_ARROW, np.zeros(3), np.zeros(3), np.eye(3).ravel(), PUSH_RGBA)
-    mujoco.mjv_connector(geom, mujoco.mjtGeom.mjGEOM_ARROW, 0.025, start, end)
+    mujoco.mjv_connector(geom, mujoco.mjtGeom.mjGEOM_ARROW, 0.04, start, end)
+    geom.emission = 0.7  # bright whichever way it points relative to the lights
     scene.ngeom += 1
 
 

@@ -262,8 +262,9 @@ def write_eval_videos(checkpoints: list[str], preferences, args) -> list[str]:
 
 
 # ---------------------------------------------------------------------------- interactive viewer
-KEYS = {262: "right", 263: "left", 32: "push", 259: "reset"}
-"""GLFW key codes: Right, Left, Space, Backspace (keys the passive viewer leaves to its user)."""
+RIGHT, LEFT, SPACE, BACKSPACE = 262, 263, 32, 259
+"""GLFW key codes of the keys the passive viewer leaves to its user (its letters toggle rendering flags)."""
+KEYS = {RIGHT: "right", LEFT: "left", SPACE: "push", BACKSPACE: "reset"}
 
 
 def key_help(objective_names: list[str]) -> str:
