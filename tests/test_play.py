@@ -119,6 +119,19 @@ def test_push_arrow_points_along_the_push():
     assert np.linalg.norm(tip[:2] - [1.0, 2.0]) < 0.3 and tip[2] == pytest.approx(0.7)  # it ends at the pelvis
 
 
+def test_eval_video_is_written_next_to_the_tables(walk_checkpoint, egl, tmp_path):
+    out = tmp_path / "eval"
+    result = subprocess.run(
+        [sys.executable, "-m", "pchc_rsl.cli.eval", walk_checkpoint, "--num-envs", "2", "--episode-length", "0.2",
+         "--preferences", "2", "--video", "--output", str(out)],
+        env={**os.environ, "MUJOCO_GL": "egl", "OMP_NUM_THREADS": "1"}, capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stderr
+    assert (out / "table.md").exists()
+    run = os.path.basename(os.path.dirname(walk_checkpoint))
+    frames = decode(out / f"{run}_model_0.mp4")
+    assert frames.shape == (5, 240, 2 * 320, 3)  # 0.2 s = 10 policy steps, every 2nd at 25 fps; 320x240 tiles
+
+
 def test_toy_gif_is_an_animated_plot(toy_checkpoint, tmp_path):
     out = tmp_path / "toy.gif"
     play.main([toy_checkpoint, "--video", str(out), "--preference", "1,0", "--preference", "0,1", "--seconds", "1",

@@ -115,7 +115,10 @@ def load_policy(path: str, num_envs: int, seed: int, episode_length_s: float | N
     from pchc_rsl.evaluation import TASK_EVALUATION, evaluation_preset
     from pchc_rsl.runners import load_checkpoint
 
-    config = load_checkpoint(path).get("config") or {}
+    try:
+        config = load_checkpoint(path).get("config") or {}
+    except (FileNotFoundError, ValueError) as error:
+        raise SystemExit(f"pchc-play: {error}") from None
     task = config.get("task")
     if task != "toy" and task not in TASK_EVALUATION:
         shown = ", ".join(sorted(TASK_EVALUATION) + ["toy"])
@@ -166,7 +169,7 @@ def live_metrics(env, i: int, falls: int) -> list[tuple[str, str]]:
         rows = [("energy", _number(metrics["energy_overall"], ".0f") + " J/s")]
     else:
         rows = [("stride", _number(metrics.get("stride_length", math.nan), ".2f") + " m")]
-    pushed = bool(env.pushes.active[i]) or metrics.get("push_deviation", math.nan) == metrics.get("push_deviation")
+    pushed = bool(env.pushes.active[i]) or not math.isnan(metrics.get("push_deviation", math.nan))
     deviation = float(env.pushes.max_deviation[i]) if pushed else math.nan
     rows.append(("push deviation", _number(deviation, ".2f") + " m"))
     if hasattr(env, "reached_standing"):
