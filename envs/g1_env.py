@@ -79,6 +79,8 @@ class G1Env(VecEnv):
         self.episode_reward_sums = torch.zeros(n, 1 + self.num_objectives)
         self.unstable_resets = 0
         self.reset()
+        # every per-step quantity has a (zero) sum from the start, so episode_metrics also answers before a step
+        self.episode.add({key: torch.zeros_like(value) for key, value in self.step_metrics().items()})
 
     # ---------------------------------------------------------------- preference
     def set_preference(self, lam) -> None:

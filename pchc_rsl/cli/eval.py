@@ -47,14 +47,23 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--episode-length", type=arguments.positive_float, help="override the episode length (s)")
     parser.add_argument("--switch", action="store_true", help="also switch lambda (0,1) -> (1,0) mid-episode (G1)")
     parser.add_argument("--output", default="eval", help="folder for the results (default: eval)")
+    parser.add_argument("--video", action="store_true", help="also write a video per checkpoint (see pchc-play)")
     parser.add_argument("-v", "--verbose", action="store_true", help="print the models and error tracebacks")
     return parser
 
 
 def main(argv: list[str] | None = None) -> None:
     args = build_parser().parse_args(argv)
+    if args.video and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+        os.environ.setdefault("MUJOCO_GL", "egl")  # headless rendering; read when mujoco is first imported
     try:
         task, saved, preferences = check_inputs(args)
+        videos = []
+        if args.video:
+            from pchc_rsl.cli.play import write_eval_videos
+
+            os.makedirs(args.output, exist_ok=True)
+            videos = write_eval_videos(args.checkpoints, preferences, args)
         results, curves, switching = [], {}, None
         for path in args.checkpoints:
             result, curve, switch = evaluate_checkpoint(path, saved[path], preferences, args)
@@ -66,7 +75,7 @@ def main(argv: list[str] | None = None) -> None:
             raise
         raise SystemExit(f"{PROG}: {error}") from None
     evaluation = TASK_EVALUATION[task]
-    written = write_outputs(results, evaluation, curves, switching, args)
+    written = write_outputs(results, evaluation, curves, switching, args) + videos
     print(markdown_table(results, evaluation))
     for result in results:
         f = result["front"]

@@ -74,10 +74,12 @@ def build_g1_model(joints: list[str], timestep: float = 0.002, lean_feet: bool =
                 size=SOLE_HALF_SIZE, pos=SOLE_CENTER, contype=1, conaffinity=0, group=COLLISION_GROUP,
                 rgba=(0.2, 0.2, 0.2, 1),
             )
-    spec.worldbody.add_geom(
+    floor = spec.worldbody.add_geom(
         name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=(0, 0, 0.05), contype=0, conaffinity=1,
         friction=(1.0, 0.005, 0.0001), priority=1, rgba=(0.5, 0.55, 0.6, 1),
     )
+    if visual:
+        add_scenery(spec, floor)
 
     for name in joints:
         joint = spec.joint(name)
@@ -108,6 +110,22 @@ def build_g1_model(joints: list[str], timestep: float = 0.002, lean_feet: bool =
         spec.add_sensor(name=f"{name}_torque", type=mujoco.mjtSensor.mjSENS_ACTUATORFRC,
                         objtype=mujoco.mjtObj.mjOBJ_ACTUATOR, objname=name.replace("_joint", ""))
     return spec.compile()
+
+
+def add_scenery(spec: mujoco.MjSpec, floor: mujoco.MjsGeom) -> None:
+    """A checkered floor (so that a camera following the robot shows it walking) and a sky; rendering only."""
+    grid = spec.add_texture(
+        name="grid", type=mujoco.mjtTexture.mjTEXTURE_2D, builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER, width=256,
+        height=256, rgb1=(0.5, 0.55, 0.6), rgb2=(0.36, 0.4, 0.45), mark=mujoco.mjtMark.mjMARK_EDGE,
+        markrgb=(0.75, 0.75, 0.75),
+    )
+    material = spec.add_material(name="grid", texrepeat=(2, 2), texuniform=True, reflectance=0.1)
+    material.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = grid.name
+    floor.material, floor.rgba = material.name, (1, 1, 1, 1)
+    spec.add_texture(
+        name="sky", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX, builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT, width=256,
+        height=256, rgb1=(0.65, 0.78, 0.92), rgb2=(0.3, 0.35, 0.4),
+    )
 
 
 def default_joint_positions(joints: list[str]) -> list[float]:
