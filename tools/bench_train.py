@@ -4,9 +4,11 @@
 
 For each N, in the same process: a PCHC runner on the task (randomised envs, as in training) runs warm-up and
 timed iterations of rsl-rl's loop (rollout of num_steps_per_env steps: act, env.step, process_env_step; then
-compute_returns and the PPO update), collection and learning timed apart; then BatchedMuJoCo.step alone on the same
-model variants and thread count, from standing states, for as many policy steps: the physics limit. Prints env
-steps per second of collection, of the whole loop, of bare physics, and the ratio whole loop / bare physics.
+compute_returns and the PPO update), collection and learning timed apart. Two physics limits of the same model
+variants and thread count, BatchedMuJoCo.step alone for as many policy steps: "standing" from standing states at
+the default pose (robots at rest: the cheapest contacts), and "replay" from the rollout's own start states with the
+controls the policy sent (the physics work training really asked for). Prints env steps per second of collection,
+of the whole loop, of both limits, and the ratios whole loop / limit.
 """
 
 from __future__ import annotations
@@ -22,9 +24,14 @@ from pchc_rsl.configs import task_config
 from pchc_rsl.envs.physics import BatchedMuJoCo
 
 
-def timed_iteration(runner) -> tuple[float, float]:
-    """One iteration of OnPolicyRunner.learn's body; (collection s, learning s)."""
+def timed_iteration(runner, record: list | None = None) -> tuple[float, float]:
+    """One iteration of OnPolicyRunner.learn's body; (collection s, learning s). With ``record``, appends the
+    physics state at the start and every control the env sent to the physics."""
     alg, env = runner.alg, runner.env
+    if record is not None:
+        record.append(env.physics.state.copy())
+        step = env.physics.step
+        env.physics.step = lambda ctrl: (record.append(ctrl.copy()), step(ctrl))[1]
     obs = env.get_observations().to(runner.device)
     start = time.perf_counter()
     with torch.inference_mode():
@@ -36,7 +43,20 @@ def timed_iteration(runner) -> tuple[float, float]:
         collected = time.perf_counter()
         alg.compute_returns(obs)
     alg.update()
+    if record is not None:
+        del env.physics.step  # back to the class' method
     return collected - start, time.perf_counter() - collected
+
+
+def replay_rate(env, record: list, threads: int) -> float:
+    """Bare physics from the recorded start state with the recorded controls: [N] env steps per second."""
+    physics = env.physics
+    bare = BatchedMuJoCo(physics.models, env.num_envs, physics.substeps, threads)
+    bare.state[:] = record[0]
+    start = time.perf_counter()
+    for ctrl in record[1:]:
+        bare.step(ctrl)
+    return env.num_envs * (len(record) - 1) / (time.perf_counter() - start)
 
 
 def bare_physics_rate(env, steps: int, threads: int) -> float:
@@ -63,7 +83,8 @@ def main() -> None:
     args = parser.parse_args()
     torch.set_num_threads(args.threads)
     print(f"{args.task}, {args.threads} thread(s), device {args.device}; env steps/s; median of {args.iterations}")
-    print(f"{'N':>6}{'collect s':>11}{'learn s':>9}{'collect/s':>11}{'loop/s':>9}{'bare/s':>9}{'loop/bare':>11}")
+    print(f"{'N':>6}{'collect s':>11}{'learn s':>9}{'collect/s':>11}{'loop/s':>9}{'standing/s':>12}{'replay/s':>10}"
+          f"{'loop/standing':>15}{'loop/replay':>13}")
     for n in args.num_envs:
         cfg = task_config(args.task)
         cfg.num_envs, cfg.device = n, args.device
@@ -71,14 +92,16 @@ def main() -> None:
         runner = make_runner(cfg)
         runner.alg.train_mode()
         timed_iteration(runner)  # warm-up
-        times = [timed_iteration(runner) for _ in range(args.iterations)]
+        record: list = []
+        times = [timed_iteration(runner, record if i == 0 else None) for i in range(args.iterations)]
         collect = statistics.median(t[0] for t in times)
         learn = statistics.median(t[1] for t in times)
         steps = n * cfg.runner.num_steps_per_env
-        bare = bare_physics_rate(runner.env, cfg.runner.num_steps_per_env, args.threads)
+        replay = replay_rate(runner.env, record, args.threads)
+        standing = bare_physics_rate(runner.env, cfg.runner.num_steps_per_env, args.threads)
         loop = steps / (collect + learn)
-        print(f"{n:>6}{collect:>11.2f}{learn:>9.2f}{steps / collect:>11.0f}{loop:>9.0f}{bare:>9.0f}{loop / bare:>11.2f}",
-              flush=True)
+        print(f"{n:>6}{collect:>11.2f}{learn:>9.2f}{steps / collect:>11.0f}{loop:>9.0f}{standing:>12.0f}{replay:>10.0f}"
+              f"{loop / standing:>15.2f}{loop / replay:>13.2f}", flush=True)
 
 
 if __name__ == "__main__":
