@@ -19,11 +19,11 @@ def load_checkpoint(path: str, map_location: str | None = "cpu") -> dict:
         loaded = torch.load(path, map_location=map_location, weights_only=True)
     except Exception as error:  # torch raises RuntimeError, EOFError, UnpicklingError, KeyError... for bad files
         reason = (str(error).strip().splitlines() or [""])[0][:160]
-        if "zip archive" in reason or "central directory" in reason:
-            what = "is truncated or is not a PyTorch checkpoint (not a complete zip archive)"
-        else:
-            what = "cannot be read as a PyTorch checkpoint"
-        raise ValueError(f"{path} ({size} bytes) {what}: {type(error).__name__}: {reason}") from None
+        if "zip archive" in reason or "central directory" in reason:  # torch's own text adds nothing here
+            raise ValueError(f"{path} ({size} bytes) is truncated or is not a PyTorch checkpoint (not a complete "
+                             "zip archive).") from None
+        raise ValueError(f"{path} ({size} bytes) cannot be read as a PyTorch checkpoint: "
+                         f"{type(error).__name__}: {reason}") from None
     if not isinstance(loaded, dict) or "actor_state_dict" not in loaded:
         raise ValueError(f"{path} is a torch file but not an rsl-rl checkpoint (no actor_state_dict).")
     return loaded
