@@ -179,7 +179,7 @@ def markdown_report(results: dict, seeds: list[int], steps: int) -> str:
             lines.append(f"| {task} | {name} | {mean_std([r['hypervolume'] for r in runs])} | {mean_std(first)} | "
                          f"{mean_std(last)} | {len(runs)} |")
     lines += ["", "Figures: `mo_study_fronts.png` (every seed's front, per task and variant), "
-              "`mo_study_hv.png` (hypervolume against env steps, mean over seeds)."]
+              "`mo_study_hv.png` (hypervolume against env steps, mean over seeds), `mo_study_claim_d.png` (claim (d))."]
     return "\n".join(lines) + "\n"
 
 
@@ -233,6 +233,36 @@ def plot_hypervolume(results: dict, path: str) -> None:
     plt.close(fig)
 
 
+def plot_claim_d(results: dict, seeds: list[int], path: str) -> None:
+    """Claim (d): each seed's five fixed-preference points (and their front) next to the single PCHC policy's."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(5.5, 4.2))
+    for k, seed in enumerate(seeds):
+        fixed = [r["rows"][0]["mean_return"] for lam in CLAIM_D_PREFERENCES
+                 for r in results.get((CLAIM_D_TASK, f"fixed{lam:.2f}"), []) if r["seed"] == seed]
+        if fixed:
+            points = np.array(fixed)
+            ax.plot(points[:, 0], points[:, 1], "s", color="C1", alpha=0.8,
+                    label="five fixed-preference policies" if k == 0 else None)
+        for r in results.get((CLAIM_D_TASK, "pci"), []):
+            if r["seed"] == seed:
+                front = np.array(r["front"])
+                order = np.argsort(front[:, 0])
+                ax.plot(front[order, 0], front[order, 1], "o-", color="C0", ms=3, alpha=0.8,
+                        label="one PCHC policy (front)" if k == 0 else None)
+    ax.set_xlabel("forward")
+    ax.set_ylabel("energy")
+    ax.set_title(f"{CLAIM_D_TASK}: equal total env steps", fontsize=9)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=80)
+    plt.close(fig)
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--out", required=True, help="folder of the runs (keep it outside the repository)")
@@ -257,6 +287,7 @@ def main(argv: list[str] | None = None) -> None:
             f.write(markdown_report(results, args.seeds, args.steps))
         plot_fronts(results, os.path.join(folder, "mo_study_fronts.png"))
         plot_hypervolume(results, os.path.join(folder, "mo_study_hv.png"))
+        plot_claim_d(results, args.seeds, os.path.join(folder, "mo_study_claim_d.png"))
     print(f"report: {os.path.join(args.out, 'mo_study.md')}" + (f" and {args.docs}" if args.docs else ""))
 
 
