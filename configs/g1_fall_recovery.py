@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from pchc_rsl.configs.base import TaskConfig
 from pchc_rsl.configs.g1_training import g1_task_config
-from pchc_rsl.envs.g1_env import RewardTerm
+from pchc_rsl.envs.g1_env import PushConfig, RewardTerm
 from pchc_rsl.envs.g1_fall_recovery import FallRecoveryConfig
 from pchc_rsl.robots.g1.constants import FALL_RECOVERY_JOINTS
 
@@ -40,6 +40,9 @@ def fall_recovery_env(fast: bool = False) -> FallRecoveryConfig:
         initial_joint_noise=0.3,
         objective_names=["energy", "disturbance"],
         rewards=fall_recovery_rewards(),
+        # pushes test the stood-up robot (r_disturb, COM displacement); HoST trains getting up without pushes
+        push=PushConfig(only_when_standing=True),
+        assist_level_step=0.1,  # HoST: 20 of 200 N per step
     )
 
 

@@ -20,6 +20,7 @@ def g1_task_config(name: str, env_class: str, env, experiment_name: str) -> Task
             max_iterations=3000,
             save_interval=50,
             algorithm=AlgorithmConfig(
+                entropy_coef=0.01,  # mjlab's G1 velocity task and HoST
                 reward_group_names=["task", *env.objective_names],
                 amp_cfg=AMPConfig(joint_names=list(env.joints), window=env.amp_window),
             ),

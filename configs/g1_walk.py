@@ -11,15 +11,17 @@ R = "pchc_rsl.envs.g1_rewards:"
 
 
 def walk_rewards() -> list[RewardTerm]:
-    """Task terms follow mjlab's velocity task / legged_gym conventions; objectives are the paper's equations."""
+    """Task terms after mjlab's G1 velocity task (src/mjlab/tasks/velocity/velocity_env_cfg.py and
+    config/g1/env_cfgs.py): tracking weighted 2.0 (std 0.5 and sqrt(0.5)), foot clearance -2.0, no air-time term
+    (mjlab turns it off for the G1). mjlab's upright and posture terms reward staying up; ``alive`` stands in for
+    them here. Objectives are the paper's equations."""
     return [
-        RewardTerm(R + "track_lin_vel_xy", 1.0, params={"std": 0.5}),
-        RewardTerm(R + "track_ang_vel_z", 0.5, params={"std": 0.5}),
+        RewardTerm(R + "track_lin_vel_xy", 2.0, params={"std": 0.5}),
+        RewardTerm(R + "track_ang_vel_z", 2.0, params={"std": 0.707}),
         RewardTerm(R + "flat_orientation", -5.0),
         RewardTerm(R + "base_height", -10.0, params={"target": 0.74}),
-        RewardTerm(R + "feet_air_time", 0.25, params={"threshold": 0.4}),
         RewardTerm(R + "feet_slip", -0.1),
-        RewardTerm(R + "feet_clearance", -1.0, params={"target_height": 0.1}),
+        RewardTerm(R + "feet_clearance", -2.0, params={"target_height": 0.1}),
         RewardTerm(R + "joint_limits", -5.0),
         RewardTerm(R + "torques", -1e-5),
         RewardTerm(R + "action_rate", -0.01),
