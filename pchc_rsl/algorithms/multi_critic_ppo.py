@@ -195,6 +195,9 @@ class MultiCriticPPO(PPO):
         return saved
 
     def load(self, loaded_dict: dict, load_cfg: dict | None, strict: bool) -> bool:
+        if "optimizer_state_dict" not in loaded_dict:  # a released policy: training continues with a fresh optimizer
+            defaults = {"actor": True, "critic": True, "optimizer": True, "iteration": True, "rnd": True}
+            load_cfg = {**(load_cfg or defaults), "optimizer": False}
         load_iteration = super().load(loaded_dict, load_cfg, strict)
         if self.amp is not None and "amp_state_dict" in loaded_dict and (load_cfg is None or load_cfg.get("amp", True)):
             self.amp.load_state_dict(loaded_dict["amp_state_dict"])

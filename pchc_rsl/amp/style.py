@@ -74,6 +74,7 @@ class AMPStyle:
 
     def load_state_dict(self, state: dict) -> None:
         self.discriminator.load_state_dict(state["discriminator"])
-        self.optimizer.load_state_dict(state["optimizer"])
-        if "replay" in state:  # checkpoints from before the replay buffer was saved start with an empty one
+        if "optimizer" in state:  # released policies carry the discriminator only
+            self.optimizer.load_state_dict(state["optimizer"])
+        if "replay" in state:  # without it (older checkpoints, released policies) the buffer starts empty
             self.replay.load_state_dict(state["replay"])

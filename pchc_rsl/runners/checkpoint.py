@@ -28,3 +28,14 @@ def load_checkpoint(path: str, map_location: str | None = "cpu") -> dict:
         raise ValueError(f"{path} is a torch file but not an rsl-rl checkpoint (no actor_state_dict).")
     return loaded
 
+
+def release_checkpoint(saved: dict) -> dict:
+    """A checkpoint for shipping: networks, normalisers, the AMP discriminator, config and iteration, without what
+    only an interrupted run needs (optimizer states, the AMP replay buffer, random streams), so that it stays
+    small. pchc-eval, pchc-play and pchc-export-onnx read it as any checkpoint; --resume continues it with a fresh
+    optimizer."""
+    dropped = {"optimizer_state_dict", "rnd_optimizer_state_dict", "training_state", "infos"}
+    released = {key: value for key, value in saved.items() if key not in dropped}
+    if "amp_state_dict" in released:
+        released["amp_state_dict"] = {"discriminator": released["amp_state_dict"]["discriminator"]}
+    return released

@@ -205,7 +205,7 @@ class PCHCRunner(OnPolicyRunner):
         if resume:
             self.restore_training_state(loaded)
         self.last_good_checkpoint = path
-        return loaded["infos"]
+        return loaded.get("infos")
 
     def export_onnx(self, path: str, verbose: bool = False) -> str:
         """Export the deterministic policy (inputs ``obs``, ``preference``) and check it against torch."""

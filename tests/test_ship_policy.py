@@ -1,0 +1,42 @@
+"""A released policy is small, carries no optimizer or replay state, and still evaluates and resumes."""
+
+import importlib.util
+import os
+
+import torch
+
+from pchc_rsl.cli import eval as eval_cli
+from pchc_rsl.cli import train as train_cli
+from pchc_rsl.runners.checkpoint import release_checkpoint
+
+
+def load_tool():
+    path = os.path.join(os.path.dirname(__file__), "..", "tools", "ship_policy.py")
+    spec = importlib.util.spec_from_file_location("ship_policy", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_release_keeps_the_networks_and_drops_the_training_state():
+    saved = {"actor_state_dict": {"w": torch.ones(2)}, "critic_state_dict": {}, "optimizer_state_dict": {"s": 1},
+             "training_state": {"torch_rng": torch.zeros(3)}, "config": {"task": "x"}, "iter": 7, "infos": None,
+             "amp_state_dict": {"discriminator": {"d": torch.ones(1)}, "optimizer": {}, "replay": {"size": 5}}}
+    released = release_checkpoint(saved)
+    assert set(released) == {"actor_state_dict", "critic_state_dict", "config", "iter", "amp_state_dict"}
+    assert set(released["amp_state_dict"]) == {"discriminator"}
+    assert torch.equal(released["actor_state_dict"]["w"], saved["actor_state_dict"]["w"])
+
+
+def test_shipped_toy_policy_evaluates_and_resumes(tmp_path):
+    train_cli.main(["--task", "toy", "--max-iterations", "2", "--log-dir", str(tmp_path / "run")])
+    original = tmp_path / "run" / "model_1.pt"
+    pt, onnx = load_tool().main([str(original), "--name", "toy", "--out", str(tmp_path / "policies")])
+    assert os.path.getsize(pt) < os.path.getsize(original) and os.path.isfile(onnx)
+    shipped = torch.load(pt, weights_only=True)
+    assert "optimizer_state_dict" not in shipped and shipped["iter"] == 1
+    eval_cli.main([pt, "--num-envs", "4", "--episodes", "1", "--preferences", "2", "--output", str(tmp_path / "e")])
+    assert (tmp_path / "e" / "table.md").is_file()
+    train_cli.main(["--resume", pt, "--max-iterations", "1", "--log-dir", str(tmp_path / "more")])
+    resumed = torch.load(tmp_path / "more" / "model_2.pt", weights_only=True)
+    assert "optimizer_state_dict" in resumed  # a fresh optimizer, saved from then on
