@@ -1,0 +1,42 @@
+"""tools/plot_training.py reads curves against env steps and wall-clock hours, across a resumed run's folders."""
+
+import importlib.util
+import json
+import os
+
+import numpy as np
+import pytest
+from torch.utils.tensorboard import SummaryWriter
+
+
+def load_tool():
+    path = os.path.join(os.path.dirname(__file__), "..", "tools", "plot_training.py")
+    spec = importlib.util.spec_from_file_location("plot_training", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def fake_run(folder, iterations, seconds_per_iteration, num_envs=4, steps_per_env=10):
+    folder.mkdir()
+    (folder / "config.json").write_text(json.dumps({"num_envs": num_envs, "runner": {"num_steps_per_env": steps_per_env}}))
+    writer = SummaryWriter(str(folder))
+    for it in iterations:
+        writer.add_scalar("Train/mean_reward", float(it), it)
+        writer.add_scalar("Perf/collection_time", seconds_per_iteration / 2, it)
+        writer.add_scalar("Perf/learning_time", seconds_per_iteration / 2, it)
+    writer.close()
+
+
+def test_curves_continue_steps_and_clock_across_a_resume(tmp_path):
+    fake_run(tmp_path / "a", range(0, 10), 360.0)  # 10 iterations of 0.1 h, 40 env steps each
+    fake_run(tmp_path / "b", range(10, 15), 720.0)  # resumed: 5 more of 0.2 h
+    steps, hours, values = load_tool().run_curves(f"{tmp_path / 'a'}+{tmp_path / 'b'}", "Train/mean_reward")
+    assert list(values) == list(range(15))
+    assert list(steps) == [40 * (i + 1) for i in range(15)]
+    np.testing.assert_allclose(hours, [0.1 * (i + 1) for i in range(10)] + [1.0 + 0.2 * (i + 1) for i in range(5)])
+    load_tool().main([f"{tmp_path / 'a'}+{tmp_path / 'b'}", "--tags", "Train/mean_reward", "--out",
+                      str(tmp_path / "c.png")])
+    assert (tmp_path / "c.png").stat().st_size > 0
+    with pytest.raises(SystemExit, match="labels"):
+        load_tool().main([str(tmp_path / "a"), "--labels", "x", "y"])
