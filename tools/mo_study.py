@@ -117,9 +117,13 @@ def claim_d_fronts(results: dict, seeds: list[int]) -> dict[int, float]:
     return hv
 
 
-def markdown_report(results: dict, seeds: list[int], steps: int) -> str:
+def markdown_report(results: dict, seeds: list[int], steps: int, total_cells: int) -> str:
+    finished = sum(len(runs) for runs in results.values())
     lines = [
         "# MO-Gymnasium study",
+        "",
+        f"**{finished} of {total_cells} cells finished**" + ("" if finished == total_cells else
+                                                               " (the study is still running; n per row below)."),
         "",
         f"Reproduce: `python tools/mo_study.py --out RUNS --seeds {' '.join(map(str, seeds))} --steps {steps}` "
         "(resumable), then `--report-only --docs docs/results`.",
@@ -284,7 +288,7 @@ def main(argv: list[str] | None = None) -> None:
     for folder in [args.out] + ([args.docs] if args.docs else []):
         os.makedirs(folder, exist_ok=True)
         with open(os.path.join(folder, "mo_study.md"), "w") as f:
-            f.write(markdown_report(results, args.seeds, args.steps))
+            f.write(markdown_report(results, args.seeds, args.steps, len(cells)))
         plot_fronts(results, os.path.join(folder, "mo_study_fronts.png"))
         plot_hypervolume(results, os.path.join(folder, "mo_study_hv.png"))
         plot_claim_d(results, args.seeds, os.path.join(folder, "mo_study_claim_d.png"))
