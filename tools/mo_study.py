@@ -30,6 +30,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 from mo_benchmark import REFERENCE_POINTS  # noqa: E402
 
+from pchc_rsl.configs import task_config  # noqa: E402
 from pchc_rsl.pareto import hypervolume, non_dominated, sparsity  # noqa: E402
 
 TASKS = ["mo-hopper-2obj-v5", "mo-halfcheetah-v5", "mo-walker2d-v5", "mo-hopper-v5"]
@@ -201,9 +202,10 @@ def plot_fronts(results: dict, path: str) -> None:
                 order = np.argsort(front[:, 0])
                 ax.plot(front[order, 0], front[order, 1], "o-", ms=3, lw=0.8, color=f"C{i}", alpha=0.8,
                         label=variant if j == 0 else None)
-        ax.set_title(task + (" (first 2 objectives)" if task == "mo-hopper-v5" else ""), fontsize=9)
-        ax.set_xlabel("objective 1")
-        ax.set_ylabel("objective 2")
+        names = task_config(task).env.objective_names
+        ax.set_title(task + (" (first 2 objectives)" if len(names) > 2 else ""), fontsize=9)
+        ax.set_xlabel(names[0])
+        ax.set_ylabel(names[1])
         ax.legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(path, dpi=80)
