@@ -38,6 +38,7 @@ def walk_env(fast: bool = False) -> G1EnvConfig:
         timestep=0.005 if fast else 0.002,
         decimation=4 if fast else 10,
         use_command=True,
+        action_scale_per_joint=True,  # mjlab's G1: 0.25 * effort / kp, 0.35-0.55 rad per unit action
         command_ranges={"lin_vel_x": (0.0, 1.0), "lin_vel_y": (0.0, 0.0), "ang_vel_z": (0.0, 0.0)},
         objective_names=["disturbance", "stride"],  # Table II's order: lambda = (0, 1) prioritises stride
         rewards=walk_rewards(),

@@ -61,7 +61,10 @@ class G1EnvConfig:
     episode_length_s: float = 10.0
     num_threads: int = 1
     action_scale: float = 0.25
-    """eta: q_target = q_default + eta * a."""
+    """eta: q_target = q_default + eta * w_j * a."""
+    action_scale_per_joint: bool = False
+    """w_j = effort limit / kp of joint j (mjlab's G1 rule: with eta = 0.25, a = 1 asks for a quarter of the joint's
+    torque limit); False: w_j = 1 (radians)."""
     action_clip: float = 10.0
     history_length: int = 5
     amp_window: int = 5

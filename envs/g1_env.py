@@ -76,6 +76,11 @@ class G1Env(VecEnv):
         self.preferences = EnvPreferences(n, self.num_objectives, cfg.preference_concentration, self.generator)
         self.preference = self.preferences.values
         self.action_scale = torch.full((n, 1), cfg.action_scale)
+        model = self.model
+        self.joint_action_weights = (  # [J]: effort limit / kp per actuator, or 1
+            torch.tensor(model.actuator_forcerange[:, 1] / model.actuator_gainprm[:, 0], dtype=torch.float32)
+            if cfg.action_scale_per_joint else torch.ones(self.num_actions)
+        )
         self.episode_reward_sums = torch.zeros(n, 1 + self.num_objectives)
         self.unstable_resets = 0
         self.reset()
@@ -148,7 +153,7 @@ class G1Env(VecEnv):
     def step(self, actions: torch.Tensor) -> tuple[TensorDict, torch.Tensor, torch.Tensor, dict]:
         self.last_actions = self.actions.clone()
         self.actions = actions.detach().to("cpu").float().clamp(-self.cfg.action_clip, self.cfg.action_clip)
-        target = self.default_joint_pos + self.action_scale * self.actions
+        target = self.default_joint_pos + self.action_scale * self.joint_action_weights * self.actions
         self.pushes.apply(self.physics, self.robot, self.commands, self._push_eligible())
         self._before_physics()
         self.physics.step(target.double().numpy())

@@ -185,3 +185,17 @@ def test_fall_recovery_curriculum_travels_with_the_env_state():
     assert fresh.assist_level == 0.35
     assert fresh.action_scale[0].item() == pytest.approx(env.action_scale[0].item())
     assert fresh.global_steps == 6 and fresh.action_scale[0].item() == pytest.approx(1.0 - 0.75 * 0.6)
+
+
+def test_walking_actions_are_scaled_per_joint_by_effort_over_kp():
+    from pchc_rsl.robots.g1.constants import joint_gains, joint_motor
+
+    env = make_walk_env(num_envs=1)
+    sent = []
+    step = env.physics.step
+    env.physics.step = lambda ctrl: (sent.append(ctrl.copy()), step(ctrl))[1]
+    env.step(torch.ones(1, env.num_actions))
+    expected = [0.25 * joint_motor(j).effort_limit / joint_gains(j)[0] for j in env.cfg.joints]
+    offsets = sent[0][0] - env.default_joint_pos.numpy()
+    np.testing.assert_allclose(offsets, expected, rtol=1e-5)
+    assert offsets.max() == pytest.approx(0.548, abs=1e-3)  # hip pitch/yaw, as in mjlab's G1
