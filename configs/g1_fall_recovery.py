@@ -48,7 +48,8 @@ def fall_recovery_env(fast: bool = False) -> FallRecoveryConfig:
 
 def g1_fall_recovery_task(fast: bool = False) -> TaskConfig:
     env = fall_recovery_env(fast)
-    return g1_task_config("g1-fall-recovery-fast" if fast else "g1-fall-recovery", "pchc_rsl.envs.g1_fall_recovery:G1FallRecoveryEnv", env, "g1_fall_recovery")
+    name = "g1-fall-recovery-fast" if fast else "g1-fall-recovery"
+    return g1_task_config(name, "pchc_rsl.envs.g1_fall_recovery:G1FallRecoveryEnv", env, "g1_fall_recovery")
 
 
 def g1_fall_recovery_fast_task() -> TaskConfig:

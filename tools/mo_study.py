@@ -129,9 +129,10 @@ def markdown_report(results: dict, seeds: list[int], steps: int, total_cells: in
         f"Reproduce: `python tools/mo_study.py --out RUNS --seeds {' '.join(map(str, seeds))} --steps {steps}` "
         "(resumable), then `--report-only --docs docs/results`.",
         f"Each run: {steps} env steps (16 envs x 128 steps per iteration), evaluated with the deterministic policy "
-        "on the raw env at 11 evenly spaced preferences (2 objectives) or the 28 points of the resolution-6 simplex lattice "
-        "(3 objectives), 5 seeded episodes each, undiscounted returns. HV: hypervolume of the non-dominated points "
-        "(reference point per task below); S: sparsity (lower is denser). Mean ± standard deviation over seeds "
+        "on the raw env at 11 evenly spaced preferences (2 objectives) or the 28 points of the resolution-6 simplex "
+        "lattice (3 objectives), 5 seeded episodes each, undiscounted returns. HV: hypervolume of the "
+        "non-dominated points (reference point per task below); S: sparsity (lower is denser). Mean ± standard "
+        "deviation over seeds "
         "(n = number of finished seeds).",
         "",
         "## PCI against the ablations",

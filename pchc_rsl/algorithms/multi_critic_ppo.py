@@ -65,7 +65,9 @@ class MultiCriticPPO(PPO):
             )
         self.return_stats: dict[str, float] = {}
         # Running per-critic return statistics; values are predicted in their units (identity when disabled).
-        self.value_normalizer = EmpiricalNormalization(self.num_critics).to(self.device) if value_normalization else None
+        self.value_normalizer = (
+            EmpiricalNormalization(self.num_critics).to(self.device) if value_normalization else None
+        )
         self._reset_group_activity()
         self.amp = AMPStyle(device=self.device, **amp_cfg) if amp_cfg else None
 
@@ -121,7 +123,8 @@ class MultiCriticPPO(PPO):
             self.transition.rewards[:, 0] += self.intrinsic_rewards  # curiosity is preference-invariant: task group
         self.group_min = torch.minimum(self.group_min, self.transition.rewards.amin(dim=0))
         self.group_max = torch.maximum(self.group_max, self.transition.rewards.amax(dim=0))
-        time_outs = extras["time_outs"].to(self.device).bool() if "time_outs" in extras else torch.zeros_like(dones, dtype=torch.bool)
+        no_time_outs = torch.zeros_like(dones, dtype=torch.bool)
+        time_outs = extras["time_outs"].to(self.device).bool() if "time_outs" in extras else no_time_outs
         self.terminated_in_rollout |= bool((dones.bool() & ~time_outs.view_as(dones)).any())
         # Bootstrapping on time-outs, per critic: r_k += gamma * V_k(s_T)
         if "time_outs" in extras:

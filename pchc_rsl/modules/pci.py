@@ -268,8 +268,9 @@ class PCIActor(_MixtureActor):
 
     hidden_dims are each expert's hidden layers; each expert gets [current observation, lambda, history latent] (the
     paper's design; ``experts_see_preference=False`` for preference-blind experts). ``num_experts`` experts sit on
-    the simplex lattice of resolution num_experts - 1 for two objectives (0, .25, .5, .75, 1 by default); for m objectives the default lattice of
-    resolution ``lattice_resolution`` is used, or pass ``expert_positions`` ([E] for m = 2, else [E, m]).
+    the simplex lattice of resolution num_experts - 1 for two objectives (0, .25, .5, .75, 1 by default); for m
+    objectives the default lattice of resolution ``lattice_resolution`` is used, or pass ``expert_positions`` ([E]
+    for m = 2, else [E, m]).
     """
 
     def __init__(
