@@ -1,8 +1,6 @@
 """The MO-Gymnasium adapter and the benchmark tool, checked against the raw MO-Gymnasium env."""
 
-import importlib.util
 import json
-import os
 import sys
 
 import numpy as np
@@ -13,6 +11,7 @@ mo_gymnasium = pytest.importorskip("mo_gymnasium")
 
 from pchc_rsl.cli import train as train_cli  # noqa: E402
 from pchc_rsl.envs.mo_gym import MOGymEnvConfig, MOGymVecEnv, make_mo_env  # noqa: E402
+from tool_loader import load_tool  # noqa: E402
 
 HOPPER = "mo-hopper-2obj-v5"
 
@@ -107,14 +106,6 @@ def test_pchc_train_runs_on_an_mo_gym_task(tmp_path):
     assert checkpoint["config"]["task"] == HOPPER
 
 
-def _load_benchmark():
-    path = os.path.join(os.path.dirname(__file__), "..", "tools", "mo_benchmark.py")
-    spec = importlib.util.spec_from_file_location("mo_benchmark", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
 def _hypervolume_2d(points, ref):
     """Independent 2-D hypervolume (maximisation): sweep the points by decreasing first objective."""
     volume, best_y = 0.0, ref[1]
@@ -126,7 +117,7 @@ def _hypervolume_2d(points, ref):
 
 
 def test_benchmark_tool_trains_evaluates_and_reports_the_front(tmp_path):
-    result = _load_benchmark().main(["--task", HOPPER, "--variant", "pci", "--steps", "2048", "--num-envs", "4",
+    result = load_tool("mo_benchmark").main(["--task", HOPPER, "--variant", "pci", "--steps", "2048", "--num-envs", "4",
                                      "--preferences", "3", "--episodes", "2", "--out", str(tmp_path)])
     saved = json.loads((tmp_path / "result.json").read_text())
     assert (tmp_path / "pareto.png").is_file()
@@ -137,7 +128,7 @@ def test_benchmark_tool_trains_evaluates_and_reports_the_front(tmp_path):
 
 
 def test_three_objective_evaluation_covers_the_simplex_lattice():
-    preferences = _load_benchmark().evaluation_preferences(3, 11, 6)
+    preferences = load_tool("mo_benchmark").evaluation_preferences(3, 11, 6)
     assert len(preferences) == 28  # (6 + 2 choose 2)
     points = np.array(preferences)
     np.testing.assert_allclose(points.sum(1), 1.0, atol=1e-6)

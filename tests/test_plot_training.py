@@ -1,20 +1,11 @@
 """tools/plot_training.py reads curves against env steps and wall-clock hours, across a resumed run's folders."""
 
-import importlib.util
 import json
-import os
 
 import numpy as np
 import pytest
 from torch.utils.tensorboard import SummaryWriter
-
-
-def load_tool():
-    path = os.path.join(os.path.dirname(__file__), "..", "tools", "plot_training.py")
-    spec = importlib.util.spec_from_file_location("plot_training", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+from tool_loader import load_tool
 
 
 def fake_run(folder, iterations, seconds_per_iteration, num_envs=4, steps_per_env=10):
@@ -31,12 +22,12 @@ def fake_run(folder, iterations, seconds_per_iteration, num_envs=4, steps_per_en
 def test_curves_continue_steps_and_clock_across_a_resume(tmp_path):
     fake_run(tmp_path / "a", range(0, 10), 360.0)  # 10 iterations of 0.1 h, 40 env steps each
     fake_run(tmp_path / "b", range(10, 15), 720.0)  # resumed: 5 more of 0.2 h
-    steps, hours, values = load_tool().run_curves(f"{tmp_path / 'a'}+{tmp_path / 'b'}", "Train/mean_reward")
+    steps, hours, values = load_tool("plot_training").run_curves(f"{tmp_path / 'a'}+{tmp_path / 'b'}", "Train/mean_reward")
     assert list(values) == list(range(15))
     assert list(steps) == [40 * (i + 1) for i in range(15)]
     np.testing.assert_allclose(hours, [0.1 * (i + 1) for i in range(10)] + [1.0 + 0.2 * (i + 1) for i in range(5)])
-    load_tool().main([f"{tmp_path / 'a'}+{tmp_path / 'b'}", "--tags", "Train/mean_reward", "--out",
+    load_tool("plot_training").main([f"{tmp_path / 'a'}+{tmp_path / 'b'}", "--tags", "Train/mean_reward", "--out",
                       str(tmp_path / "c.png")])
     assert (tmp_path / "c.png").stat().st_size > 0
     with pytest.raises(SystemExit, match="labels"):
-        load_tool().main([str(tmp_path / "a"), "--labels", "x", "y"])
+        load_tool("plot_training").main([str(tmp_path / "a"), "--labels", "x", "y"])

@@ -1,6 +1,5 @@
 """A released policy is small, carries no optimizer or replay state, and still evaluates and resumes."""
 
-import importlib.util
 import os
 
 import torch
@@ -8,14 +7,7 @@ import torch
 from pchc_rsl.cli import eval as eval_cli
 from pchc_rsl.cli import train as train_cli
 from pchc_rsl.runners.checkpoint import release_checkpoint
-
-
-def load_tool():
-    path = os.path.join(os.path.dirname(__file__), "..", "tools", "ship_policy.py")
-    spec = importlib.util.spec_from_file_location("ship_policy", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+from tool_loader import load_tool
 
 
 def test_release_keeps_the_networks_and_drops_the_training_state():
@@ -31,7 +23,7 @@ def test_release_keeps_the_networks_and_drops_the_training_state():
 def test_shipped_toy_policy_evaluates_and_resumes(tmp_path):
     train_cli.main(["--task", "toy", "--max-iterations", "2", "--log-dir", str(tmp_path / "run")])
     original = tmp_path / "run" / "model_1.pt"
-    pt, onnx = load_tool().main([str(original), "--name", "toy", "--out", str(tmp_path / "policies")])
+    pt, onnx = load_tool("ship_policy").main([str(original), "--name", "toy", "--out", str(tmp_path / "policies")])
     assert os.path.getsize(pt) < os.path.getsize(original) and os.path.isfile(onnx)
     shipped = torch.load(pt, weights_only=True)
     assert "optimizer_state_dict" not in shipped and shipped["iter"] == 1
