@@ -56,6 +56,9 @@ class RandomizationConfig:
 @dataclass
 class G1EnvConfig:
     joints: list[str]
+    physics: str = "mujoco"
+    """The physics backend: "mujoco" (C MuJoCo on the CPU threads) or "warp" (MuJoCo Warp on the training device;
+    the ``warp`` extra)."""
     timestep: float = 0.002
     decimation: int = 10
     episode_length_s: float = 10.0

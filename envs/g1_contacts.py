@@ -9,14 +9,14 @@ class FootContacts:
     """Per-env contact state of the two feet. ``stride``: at each touchdown this step, the horizontal distance
     from where that foot last touched the ground (0 elsewhere), m."""
 
-    def __init__(self, num_envs: int, dt: float, force_threshold: float) -> None:
+    def __init__(self, num_envs: int, dt: float, force_threshold: float, device: str = "cpu") -> None:
         self.dt, self.force_threshold = dt, force_threshold
-        self.contact = torch.zeros(num_envs, 2, dtype=torch.bool)
-        self.first_contact = torch.zeros(num_envs, 2, dtype=torch.bool)
-        self.air_time = torch.zeros(num_envs, 2)
-        self.last_air_time = torch.zeros(num_envs, 2)
-        self.last_contact_pos = torch.zeros(num_envs, 2, 2)
-        self.stride = torch.zeros(num_envs, 2)
+        self.contact = torch.zeros(num_envs, 2, dtype=torch.bool, device=device)
+        self.first_contact = torch.zeros(num_envs, 2, dtype=torch.bool, device=device)
+        self.air_time = torch.zeros(num_envs, 2, device=device)
+        self.last_air_time = torch.zeros(num_envs, 2, device=device)
+        self.last_contact_pos = torch.zeros(num_envs, 2, 2, device=device)
+        self.stride = torch.zeros(num_envs, 2, device=device)
 
     def in_contact(self, touch_substeps: torch.Tensor) -> torch.Tensor:
         """[N, K, 2] sole forces -> [N, 2]: in contact at any substep."""

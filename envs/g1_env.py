@@ -26,7 +26,7 @@ from pchc_rsl.envs.g1_observations import ObservationBuffers
 from pchc_rsl.envs.g1_pushes import Pushes
 from pchc_rsl.envs.g1_randomization import model_variants
 from pchc_rsl.envs.g1_robot_state import RobotState
-from pchc_rsl.envs.physics import BatchedMuJoCo
+from pchc_rsl.envs.physics_backend import make_physics, physics_device
 from pchc_rsl.envs.reward_groups import RewardGroups
 from pchc_rsl.preference import EnvPreferences
 from pchc_rsl.robots.g1.constants import STANDING_HEIGHT
@@ -36,7 +36,8 @@ __all__ = ["G1Env", "G1EnvConfig", "PUSH_PRESETS", "PushConfig", "RandomizationC
 
 
 class G1Env(VecEnv):
-    """N G1 robots; see G1EnvConfig. Device is the CPU (the physics runs there)."""
+    """N G1 robots; see G1EnvConfig. The env's tensors live where its physics runs: on the CPU with C MuJoCo, on
+    ``device`` with MuJoCo Warp (``cfg.physics``)."""
 
     uses_body_forces = False
     """Tasks that push bodies with external forces (e.g. the fall-recovery assist) set this."""
@@ -44,44 +45,48 @@ class G1Env(VecEnv):
     def __init__(self, cfg: G1EnvConfig, num_envs: int, device: str = "cpu", seed: int = 0) -> None:
         if cfg.preference_concentration <= 0:
             raise ValueError("preference_concentration must be > 0.")
-        # the physics runs on the CPU, so the env's tensors live there; the runner moves them to its own device
-        self.cfg, self.num_envs, self.device = cfg, num_envs, "cpu"
+        self.cfg, self.num_envs = cfg, num_envs
+        self.device = physics_device(cfg.physics, device)
         self.num_objectives = len(cfg.objective_names)
         self.num_actions = len(cfg.joints)
         self.dt = cfg.timestep * cfg.decimation
         self.max_episode_length = int(math.ceil(cfg.episode_length_s / self.dt))
-        self.generator = torch.Generator().manual_seed(seed)
+        self.generator = torch.Generator(self.device).manual_seed(seed)
         self.rng = np.random.default_rng(seed)
 
         self.model = build_g1_model(cfg.joints, cfg.timestep)
-        self.physics = BatchedMuJoCo(model_variants(self.model, cfg.randomization, num_envs, self.rng), num_envs,
-                                     cfg.decimation, cfg.num_threads, with_body_forces=self.uses_body_forces)
+        variants = model_variants(self.model, cfg.randomization, num_envs, self.rng)
+        self.physics = make_physics(cfg.physics, variants, num_envs, cfg.decimation, cfg.num_threads, self.device,
+                                    with_body_forces=self.uses_body_forces)
+        dev = self.device
         self.robot = RobotState(self.physics, self.model, cfg.joints)
-        self.default_joint_pos = torch.tensor(default_joint_positions(cfg.joints))
-        ranges = torch.tensor(self.model.jnt_range[[self.model.joint(j).id for j in cfg.joints]], dtype=torch.float32)
+        self.default_joint_pos = torch.tensor(default_joint_positions(cfg.joints), device=dev)
+        ranges = torch.tensor(self.model.jnt_range[[self.model.joint(j).id for j in cfg.joints]], dtype=torch.float32,
+                              device=dev)
         half = 0.45 * (ranges[:, 1:] - ranges[:, :1])
-        self.soft_joint_limits = ranges.mean(-1, keepdim=True) + half * torch.tensor([-1.0, 1.0])
+        self.soft_joint_limits = ranges.mean(-1, keepdim=True) + half * torch.tensor([-1.0, 1.0], device=dev)
 
         n = num_envs
         self.rewards = RewardGroups(cfg.rewards, cfg.objective_names, self.dt)
-        self.feet = FootContacts(n, self.dt, cfg.contact_force_threshold)
+        self.feet = FootContacts(n, self.dt, cfg.contact_force_threshold, dev)
         self.pushes = Pushes(cfg.push, n, self.dt, self.generator)
         self.observations = ObservationBuffers(n, self.num_actions, cfg.history_length, cfg.amp_window,
                                                cfg.use_command, cfg.observation_noise, self.generator)
-        self.episode = EpisodeSums(n)
-        self.actions = torch.zeros(n, self.num_actions)
-        self.last_actions = torch.zeros(n, self.num_actions)
-        self.episode_length_buf = torch.zeros(n, dtype=torch.long)
-        self.commands = torch.zeros(n, 3)
-        self.preferences = EnvPreferences(n, self.num_objectives, cfg.preference_concentration, self.generator)
+        self.episode = EpisodeSums(n, dev)
+        self.actions = torch.zeros(n, self.num_actions, device=dev)
+        self.last_actions = torch.zeros(n, self.num_actions, device=dev)
+        self.episode_length_buf = torch.zeros(n, dtype=torch.long, device=dev)
+        self.commands = torch.zeros(n, 3, device=dev)
+        self.preferences = EnvPreferences(n, self.num_objectives, cfg.preference_concentration, self.generator, dev)
         self.preference = self.preferences.values
-        self.action_scale = torch.full((n, 1), cfg.action_scale)
+        self.action_scale = torch.full((n, 1), cfg.action_scale, device=dev)
         model = self.model
         self.joint_action_weights = (  # [J]: effort limit / kp per actuator, or 1
-            torch.tensor(model.actuator_forcerange[:, 1] / model.actuator_gainprm[:, 0], dtype=torch.float32)
-            if cfg.action_scale_per_joint else torch.ones(self.num_actions)
+            torch.tensor(model.actuator_forcerange[:, 1] / model.actuator_gainprm[:, 0], dtype=torch.float32,
+                         device=dev)
+            if cfg.action_scale_per_joint else torch.ones(self.num_actions, device=dev)
         )
-        self.episode_reward_sums = torch.zeros(n, 1 + self.num_objectives)
+        self.episode_reward_sums = torch.zeros(n, 1 + self.num_objectives, device=dev)
         self.unstable_resets = 0
         self.reset()
         # every per-step quantity has a (zero) sum from the start, so episode_metrics also answers before a step
@@ -95,12 +100,13 @@ class G1Env(VecEnv):
     # ---------------------------------------------------------------- reset
     def reset(self, env_ids: torch.Tensor | None = None) -> None:
         """Start new episodes in these envs (all by default): initial state, command, preference, histories."""
-        ids = torch.arange(self.num_envs) if env_ids is None else torch.as_tensor(env_ids, dtype=torch.long)
+        ids = (torch.arange(self.num_envs, device=self.device) if env_ids is None
+               else torch.as_tensor(env_ids, dtype=torch.long, device=self.device))
         if len(ids) == 0:
             return
         self._before_reset(ids)
         qpos, qvel = self.initial_state(ids)
-        self.physics.set_qpos_qvel(ids.numpy(), qpos.double().numpy(), qvel.double().numpy())
+        self.physics.set_qpos_qvel(ids, qpos, qvel)
         self.robot.read()
         r, n = self.cfg.command_ranges, len(ids)
         self.commands[ids] = torch.stack(
@@ -118,17 +124,18 @@ class G1Env(VecEnv):
         self.observations.reset(self, ids)
 
     def _uniform(self, n: int, low: float, high: float) -> torch.Tensor:
-        return low + (high - low) * torch.rand(n, generator=self.generator)
+        return low + (high - low) * torch.rand(n, generator=self.generator, device=self.device)
 
     def initial_state(self, env_ids: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """Standing at the default pose with joint noise (tasks override for other starts). [n, nq], [n, nv]."""
         n = len(env_ids)
-        qpos = torch.zeros(n, self.model.nq)
+        qpos = torch.zeros(n, self.model.nq, device=self.device, dtype=torch.float64)
         qpos[:, 2] = STANDING_HEIGHT
         qpos[:, 3] = 1.0
-        noise = self.cfg.initial_joint_noise * (2 * torch.rand(n, self.num_actions, generator=self.generator) - 1)
-        qpos[:, self.robot.joint_qpos_idx] = self.default_joint_pos + noise
-        return qpos, torch.zeros(n, self.model.nv)
+        noise = self.cfg.initial_joint_noise * (
+            2 * torch.rand(n, self.num_actions, generator=self.generator, device=self.device) - 1)
+        qpos[:, self.robot.joint_qpos_idx] = (self.default_joint_pos + noise).double()
+        return qpos, torch.zeros(n, self.model.nv, device=self.device, dtype=torch.float64)
 
     # ---------------------------------------------------------------- observations
     def privileged_state(self) -> torch.Tensor:
@@ -152,11 +159,11 @@ class G1Env(VecEnv):
     # ---------------------------------------------------------------- step
     def step(self, actions: torch.Tensor) -> tuple[TensorDict, torch.Tensor, torch.Tensor, dict]:
         self.last_actions = self.actions.clone()
-        self.actions = actions.detach().to("cpu").float().clamp(-self.cfg.action_clip, self.cfg.action_clip)
+        self.actions = actions.detach().to(self.device).float().clamp(-self.cfg.action_clip, self.cfg.action_clip)
         target = self.default_joint_pos + self.action_scale * self.joint_action_weights * self.actions
         self.pushes.apply(self.physics, self.robot, self.commands, self._push_eligible())
         self._before_physics()
-        self.physics.step(target.double().numpy())
+        self.physics.step(target.to(self.physics.qpos.dtype))
         unstable = self._unstable_envs()
         self.robot.read()
         self.feet.update(self.robot.foot_touch_substeps, self.robot.foot_pos)
@@ -181,7 +188,8 @@ class G1Env(VecEnv):
         log = self._episode_log(done_ids, finished, int(unstable.sum()))
         self.reset(done_ids)
         if self.cfg.preference_resample_prob > 0 and self.preferences.held is None:
-            resample = torch.rand(self.num_envs, generator=self.generator) < self.cfg.preference_resample_prob
+            resample = (torch.rand(self.num_envs, generator=self.generator, device=self.device)
+                        < self.cfg.preference_resample_prob)
             self.preferences.resample(resample.nonzero(as_tuple=False).squeeze(-1))
         self.observations.push(self, amp=False)
         extras = {"time_outs": time_outs, "reward_groups": reward_groups, "log": log, "episode_metrics": finished,
@@ -209,15 +217,13 @@ class G1Env(VecEnv):
 
     def _unstable_envs(self) -> torch.Tensor:
         """Envs whose physics diverged (MuJoCo reset them, NaN/inf, or absurd velocities); reset and counted."""
-        state = self.physics.state
-        bad = (self.physics.diverged | ~np.isfinite(state).all(axis=1)
-               | (np.abs(state[:, self.physics.qvel_slice]) > 1e3).any(axis=1))
-        if bad.any():
-            self.unstable_resets += int(bad.sum())
-            state[bad] = np.nan_to_num(state[bad], nan=0.0, posinf=0.0, neginf=0.0)
-            self.physics.substep_sensors[bad] = 0.0
-            self.physics.substep_states[bad] = 0.0
-        return torch.from_numpy(bad)
+        p = self.physics
+        bad = p.diverged | ~p.qpos.isfinite().all(-1) | ~(p.qvel.abs() <= 1e3).all(-1)  # NaN fails the <=
+        count = int(bad.sum())
+        if count:
+            self.unstable_resets += count
+            p.sanitize(bad.nonzero(as_tuple=False).squeeze(-1))
+        return bad
 
     # ---------------------------------------------------------------- metrics
     def step_metrics(self) -> dict[str, torch.Tensor]:

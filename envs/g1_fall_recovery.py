@@ -16,6 +16,7 @@ import torch
 
 from pchc_rsl.envs.g1_env import G1Env, G1EnvConfig
 from pchc_rsl.envs.g1_metrics import ratio
+from pchc_rsl.envs.physics_backend import physics_device
 
 STAND_HEIGHT = 0.7
 FALL_HEIGHT = 0.5
@@ -58,8 +59,9 @@ class G1FallRecoveryEnv(G1Env):
     def __init__(self, cfg: FallRecoveryConfig, num_envs: int, device: str = "cpu", seed: int = 0) -> None:
         self.assist_level = 1.0 if cfg.curriculum else 0.0
         self.global_steps = 0
-        self.reached_standing = torch.zeros(num_envs, dtype=torch.bool)
-        self.fell_after_standing = torch.zeros(num_envs, dtype=torch.bool)
+        where = physics_device(cfg.physics, device)  # the reset inside G1Env.__init__ uses these
+        self.reached_standing = torch.zeros(num_envs, dtype=torch.bool, device=where)
+        self.fell_after_standing = torch.zeros(num_envs, dtype=torch.bool, device=where)
         super().__init__(cfg, num_envs, device, seed)
         self.torso_id = self.model.body("torso_link").id
         self._update_eta()
@@ -68,9 +70,9 @@ class G1FallRecoveryEnv(G1Env):
         """Lying face down (pitch +90 deg: the body's forward axis points at the floor) with random yaw and joints."""
         qpos, qvel = super().initial_state(env_ids)
         n = len(env_ids)
-        supine = torch.rand(n, generator=self.generator) < self.cfg.supine_probability
+        supine = torch.rand(n, generator=self.generator, device=self.device) < self.cfg.supine_probability
         pitch = torch.where(supine, -math.pi / 2, math.pi / 2)
-        yaw = 2 * math.pi * torch.rand(n, generator=self.generator)
+        yaw = 2 * math.pi * torch.rand(n, generator=self.generator, device=self.device)
         # q = q_yaw * q_pitch, (w, x, y, z)
         cy, sy, cp, sp = (yaw / 2).cos(), (yaw / 2).sin(), (pitch / 2).cos(), (pitch / 2).sin()
         qpos[:, 3:7] = torch.stack([cy * cp, -sy * sp, cy * sp, sy * cp], -1)
@@ -121,7 +123,7 @@ class G1FallRecoveryEnv(G1Env):
     # ---------------------------------------------------------------- metrics
     def _terminated(self) -> torch.Tensor:
         """Lying down is where this task starts, not a failure: episodes end by time-out only."""
-        return torch.zeros(self.num_envs, dtype=torch.bool)
+        return torch.zeros(self.num_envs, dtype=torch.bool, device=self.device)
 
     def step_metrics(self) -> dict[str, torch.Tensor]:
         standing = self.reached_standing.float()

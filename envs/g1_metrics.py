@@ -8,14 +8,14 @@ import torch
 class EpisodeSums:
     """Running sums per env of named per-step quantities; reading them has no side effect."""
 
-    def __init__(self, num_envs: int) -> None:
-        self.num_envs = num_envs
+    def __init__(self, num_envs: int, device: str = "cpu") -> None:
+        self.num_envs, self.device = num_envs, device
         self.sums: dict[str, torch.Tensor] = {}
 
     def add(self, values: dict[str, torch.Tensor]) -> None:
         for key, value in values.items():
             if key not in self.sums:
-                self.sums[key] = torch.zeros(self.num_envs)
+                self.sums[key] = torch.zeros(self.num_envs, device=self.device)
             self.sums[key] += value
 
     def get(self, env_ids: torch.Tensor) -> dict[str, torch.Tensor]:
@@ -28,4 +28,4 @@ class EpisodeSums:
 
 def ratio(total: torch.Tensor, count: torch.Tensor) -> torch.Tensor:
     """total / count, NaN where count is 0 (a metric undefined in that episode)."""
-    return torch.where(count > 0, total / count.clamp(min=1), torch.tensor(float("nan")))
+    return torch.where(count > 0, total / count.clamp(min=1), float("nan"))

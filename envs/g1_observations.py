@@ -18,9 +18,10 @@ class ObservationBuffers:
                  noise: float, generator: torch.Generator) -> None:
         self.use_command, self.noise, self.generator = use_command, noise, generator
         frame_dim = 3 + 3 + 3 * num_joints + 1 + (3 if use_command else 0)
-        self.policy = torch.zeros(num_envs, history_length + 1, frame_dim)
-        self.critic = torch.zeros(num_envs, history_length + 1, frame_dim)
-        self.amp = torch.zeros(num_envs, amp_window, num_joints)
+        device = generator.device
+        self.policy = torch.zeros(num_envs, history_length + 1, frame_dim, device=device)
+        self.critic = torch.zeros(num_envs, history_length + 1, frame_dim, device=device)
+        self.amp = torch.zeros(num_envs, amp_window, num_joints, device=device)
 
     def frame(self, env, noise: bool = False) -> torch.Tensor:
         """[N, frame_dim] of the current state; with ``noise``, uniform noise on the measured quantities."""
@@ -32,12 +33,14 @@ class ObservationBuffers:
             "joint_vel": robot.joint_vel,
         }
         if noise and self.noise > 0:
-            parts = {k: v + self.noise * NOISE_SCALES[k] * (2 * torch.rand(v.shape, generator=self.generator) - 1)
-                     for k, v in parts.items()}
+            parts = {k: v + self.noise * NOISE_SCALES[k] * (2 * self._uniform(v.shape) - 1) for k, v in parts.items()}
         frame = [*parts.values(), env.actions, env.action_scale]
         if self.use_command:
             frame.append(env.commands)
         return torch.cat(frame, dim=-1)
+
+    def _uniform(self, shape: torch.Size) -> torch.Tensor:
+        return torch.rand(shape, generator=self.generator, device=self.generator.device)
 
     def reset(self, env, env_ids: torch.Tensor) -> None:
         """Fill the histories of these envs with their current frame (no noise) and joint positions."""

@@ -14,29 +14,28 @@ import torch
 
 from pchc_rsl.envs.g1_config import PushConfig
 from pchc_rsl.envs.g1_robot_state import RobotState, yaw_of
-from pchc_rsl.envs.physics import BatchedMuJoCo
 
 
 class Pushes:
     def __init__(self, cfg: PushConfig, num_envs: int, dt: float, generator: torch.Generator) -> None:
         self.cfg, self.dt, self.generator = cfg, dt, generator
-        n = num_envs
-        self.countdown = torch.zeros(n, dtype=torch.long)
+        n, self.device = num_envs, generator.device
+        self.countdown = torch.zeros(n, dtype=torch.long, device=self.device)
         """Policy steps until the next push."""
-        self.window = torch.zeros(n, dtype=torch.long)
+        self.window = torch.zeros(n, dtype=torch.long, device=self.device)
         """Policy steps left in the after-disturb window."""
-        self.direction = torch.zeros(n, 2)
-        self.origin = torch.zeros(n, 2)
-        self.com_origin = torch.zeros(n, 2)
-        self.ref_vel = torch.zeros(n, 2)
-        self.elapsed = torch.zeros(n)
-        self.max_deviation = torch.zeros(n)
+        self.direction = torch.zeros(n, 2, device=self.device)
+        self.origin = torch.zeros(n, 2, device=self.device)
+        self.com_origin = torch.zeros(n, 2, device=self.device)
+        self.ref_vel = torch.zeros(n, 2, device=self.device)
+        self.elapsed = torch.zeros(n, device=self.device)
+        self.max_deviation = torch.zeros(n, device=self.device)
         """Largest base deviation from the reference in the current window, m."""
-        self.max_com_deviation = torch.zeros(n)
+        self.max_com_deviation = torch.zeros(n, device=self.device)
         """Largest whole-body COM deviation from the reference in the current window, m."""
 
     def _uniform(self, n: int, low: float, high: float) -> torch.Tensor:
-        return low + (high - low) * torch.rand(n, generator=self.generator)
+        return low + (high - low) * torch.rand(n, generator=self.generator, device=self.device)
 
     def _interval(self, n: int) -> torch.Tensor:
         return (self._uniform(n, *self.cfg.interval_s) / self.dt).long().clamp(min=1)
@@ -52,7 +51,7 @@ class Pushes:
         """[N] bool: inside the window after a push (the paper's I_after-disturb)."""
         return self.window > 0
 
-    def apply(self, physics: BatchedMuJoCo, robot: RobotState, commands: torch.Tensor,
+    def apply(self, physics, robot: RobotState, commands: torch.Tensor,
               eligible: torch.Tensor | None = None) -> None:
         """Count down (only where ``eligible``), push the envs whose countdown ran out; record d, x_last, v_ref."""
         if not self.cfg.enabled:
@@ -66,10 +65,7 @@ class Pushes:
         angle = self._uniform(n, 0.0, 2 * math.pi)
         direction = torch.stack([angle.cos(), angle.sin()], -1)
         speed = self._uniform(n, *self.cfg.velocity)
-        rows = ids.numpy()
-        physics.state[rows, physics.qvel_slice.start : physics.qvel_slice.start + 2] += (
-            (speed.unsqueeze(-1) * direction).double().numpy()
-        )
+        physics.qvel[ids, :2] += speed.unsqueeze(-1) * direction  # the free joint's world-frame linear velocity
         self.direction[ids] = direction
         self.origin[ids] = robot.base_pos[ids, :2]
         self.com_origin[ids] = robot.com_pos[ids, :2]

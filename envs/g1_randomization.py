@@ -30,5 +30,6 @@ def model_variants(model: mujoco.MjModel, cfg: RandomizationConfig, num_envs: in
         strength = rng.uniform(*cfg.actuator_strength)
         m.actuator_gainprm[:, 0] *= strength
         m.actuator_biasprm[:, 1:3] *= strength
+        mujoco.mj_setConst(m, mujoco.MjData(m))  # masses derived from body_mass (subtree masses: the COM sensor)
         variants.append(m)
     return [variants[i % len(variants)] for i in range(num_envs)]

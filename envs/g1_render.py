@@ -82,9 +82,9 @@ class G1Renderer:
 
     def render(self, env, i: int) -> np.ndarray:
         """Env i as it is now, with an arrow while it is inside the window after a push."""
-        self.data.qpos[:] = env.physics.qpos[i]
+        self.data.qpos[:] = env.physics.qpos[i].cpu().numpy()
         mujoco.mj_forward(self.model, self.data)
-        base = env.physics.qpos[i, :3]
+        base = env.physics.qpos[i, :3].cpu().numpy()
         self.renderer.update_scene(self.data, follow_camera(base, self.camera))
         if bool(env.pushes.active[i]):
             add_push_arrow(self.renderer.scene, base, env.pushes.direction[i].numpy())

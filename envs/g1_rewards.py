@@ -64,7 +64,7 @@ def action_rate(env) -> torch.Tensor:
 
 
 def alive(env) -> torch.Tensor:
-    return torch.ones(env.num_envs)
+    return torch.ones(env.num_envs, device=env.device)
 
 
 def stride(env) -> torch.Tensor:

@@ -5,9 +5,6 @@ from __future__ import annotations
 import mujoco
 import torch
 
-from pchc_rsl.envs.physics import BatchedMuJoCo
-
-GRAVITY_DIRECTION = torch.tensor([0.0, 0.0, -1.0])
 
 
 def quat_rotate_inverse(q: torch.Tensor, v: torch.Tensor) -> torch.Tensor:
@@ -23,50 +20,53 @@ def yaw_of(q: torch.Tensor) -> torch.Tensor:
 
 
 class RobotState:
-    """Base pose and velocities, joints, feet, torques and whole-body COM of all envs (CPU tensors).
+    """Base pose and velocities, joints, feet, torques and whole-body COM of all envs (float32, on the physics'
+    device).
 
     Sensor columns are looked up by name once; ``read`` is on the hot path and only slices.
     """
 
-    def __init__(self, physics: BatchedMuJoCo, model: mujoco.MjModel, joints: list[str]) -> None:
+    def __init__(self, physics, model: mujoco.MjModel, joints: list[str]) -> None:
         self.physics = physics
         self.num_envs = physics.num_envs
-        self.joint_qpos_idx = torch.tensor([model.jnt_qposadr[model.joint(j).id] for j in joints])
-        self.joint_dof_idx = torch.tensor([model.jnt_dofadr[model.joint(j).id] for j in joints])
+        dev = physics.device
+        self.gravity = torch.tensor([0.0, 0.0, -1.0], device=dev).expand(self.num_envs, 3)
+        self.joint_qpos_idx = torch.tensor([model.jnt_qposadr[model.joint(j).id] for j in joints], device=dev)
+        self.joint_dof_idx = torch.tensor([model.jnt_dofadr[model.joint(j).id] for j in joints], device=dev)
         feet = ("left_foot", "right_foot")
 
         def columns(name: str) -> list[int]:
             cols = physics.sensor_columns(name)
             return list(range(cols.start, cols.stop))
 
-        self.sensor_index = {
-            "foot_pos": torch.tensor([columns(f"{s}_pos") for s in feet]),  # [2, 3]
-            "foot_vel": torch.tensor([columns(f"{s}_linvel") for s in feet]),  # [2, 3]
-            "foot_touch": torch.tensor([columns(f"{s}_touch")[0] for s in feet]),  # [2]
-            "com_pos": torch.tensor(columns("com_pos")),  # [3]
-            "torque": torch.tensor([columns(f"{j}_torque")[0] for j in joints]),  # [J]
+        index = {
+            "foot_pos": [columns(f"{s}_pos") for s in feet],  # [2, 3]
+            "foot_vel": [columns(f"{s}_linvel") for s in feet],  # [2, 3]
+            "foot_touch": [columns(f"{s}_touch")[0] for s in feet],  # [2]
+            "com_pos": columns("com_pos"),  # [3]
+            "torque": [columns(f"{j}_torque")[0] for j in joints],  # [J]
         }
+        self.sensor_index = {key: torch.tensor(value, device=dev) for key, value in index.items()}
         self.read()
 
     def read(self) -> None:
         """Pull the latest physics state and the substep sensors into torch tensors."""
         p = self.physics
-        qpos, qvel = torch.from_numpy(p.qpos).float(), torch.from_numpy(p.qvel).float()
+        qpos, qvel = p.qpos.float(), p.qvel.float()
         self.base_pos = qpos[:, :3]
         self.base_quat = qpos[:, 3:7]
         self.base_lin_vel_w = qvel[:, :3]
         self.base_ang_vel = qvel[:, 3:6]  # free joint: angular velocity in the body frame
         self.base_lin_vel = quat_rotate_inverse(self.base_quat, self.base_lin_vel_w)
-        self.projected_gravity = quat_rotate_inverse(self.base_quat, GRAVITY_DIRECTION.expand(self.num_envs, 3))
+        self.projected_gravity = quat_rotate_inverse(self.base_quat, self.gravity)
         self.joint_pos = qpos[:, self.joint_qpos_idx]
         self.joint_vel = qvel[:, self.joint_dof_idx]
-        sensors = torch.from_numpy(p.substep_sensors).float()  # [N, K, S]
+        sensors = p.substep_sensors.float()  # [N, K, S]
         index = self.sensor_index
         self.foot_pos = sensors[:, -1, index["foot_pos"]]  # [N, 2, 3]
         self.foot_vel = sensors[:, -1, index["foot_vel"]]
         self.foot_touch_substeps = sensors[:, :, index["foot_touch"]]  # [N, K, 2]
         self.com_pos = sensors[:, -1, index["com_pos"]]  # [N, 3]
         self.torques_substeps = sensors[:, :, index["torque"]]  # [N, K, J]
-        states = torch.from_numpy(p.substep_states[:, :, p.qvel_slice]).float()
-        self.joint_vel_substeps = states[:, :, self.joint_dof_idx]  # [N, K, J]
+        self.joint_vel_substeps = p.substep_qvel[:, :, self.joint_dof_idx].float()  # [N, K, J]
         self.torques = self.torques_substeps[:, -1]

@@ -22,7 +22,7 @@ class RewardGroups:
         self.dt = dt
 
     def compute(self, env) -> torch.Tensor:
-        groups = torch.zeros(env.num_envs, len(self.names))
+        groups = torch.zeros(env.num_envs, len(self.names), device=env.device)
         for func, term in self.terms:
             groups[:, self.index[term.group]] += term.weight * func(env, **term.params) * self.dt
         return groups

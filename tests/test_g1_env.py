@@ -89,10 +89,10 @@ def test_stride_reward_from_scripted_contacts():
 
 def push_now(env):
     """Push every env at once (as the countdown running out would); returns the velocity kick [N, 2]."""
-    before = torch.from_numpy(env.physics.qvel[:, :2].copy()).float()
+    before = env.physics.qvel[:, :2].float()
     env.pushes.countdown[:] = 1
     env.pushes.apply(env.physics, env.robot, env.commands)
-    return torch.from_numpy(env.physics.qvel[:, :2].copy()).float() - before
+    return env.physics.qvel[:, :2].float() - before
 
 
 def test_push_records_direction_and_gives_r_disturb():

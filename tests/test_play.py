@@ -172,10 +172,10 @@ def test_keys_move_lambda_push_and_reset(walk_checkpoint):
         assert not env.pushes.active[0]  # --push-every 0: no push by itself
         controls.on_key(play.SPACE)
         controls.apply()
-        before = env.physics.qvel[0, :2].copy()
+        before = env.physics.qvel[0, :2].numpy().copy()
         env.step(policy(env.get_observations()))
         assert env.pushes.active[0]
-        assert np.linalg.norm(env.physics.qvel[0, :2] - before) > 0.2  # the pelvis was thrown
+        assert np.linalg.norm(env.physics.qvel[0, :2].numpy() - before) > 0.2  # the pelvis was thrown
 
         controls.on_key(play.BACKSPACE)
         controls.apply()

@@ -3,6 +3,7 @@
 import hashlib
 import json
 import os
+import sys
 
 import pytest
 import torch
@@ -57,6 +58,15 @@ def test_bad_arguments_stop_before_any_work(tmp_path, monkeypatch, capsys, argv,
 def test_cuda_on_a_cpu_only_torch_says_so(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
     assert "sees no CUDA GPU; use --device cpu" in one_line_exit(capsys, ["--task", "toy", "--device", "cuda:0"])
+
+
+def test_warp_physics_without_the_extra_says_what_to_install(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setitem(sys.modules, "mujoco_warp", None)  # import mujoco_warp raises ImportError
+    message = one_line_exit(capsys, ["--task", "g1-walk-fast", "--physics", "warp"])
+    assert "pip install 'pchc-rsl[warp]'" in message
+    assert not os.listdir(tmp_path)
+    assert "applies to the G1 tasks" in one_line_exit(capsys, ["--task", "toy", "--physics", "warp"])
 
 
 def test_a_run_that_fails_while_starting_leaves_no_folder(tmp_path, monkeypatch, capsys):

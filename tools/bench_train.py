@@ -1,11 +1,12 @@
 """Whole training loop against bare physics: where an iteration's time goes, and how close it gets to the limit.
 
     python tools/bench_train.py [--num-envs 256 1024 4096] [--iterations 2] [--threads 1]
+    python tools/bench_train.py --physics warp --device cuda:0 --num-envs 4096   # on a GPU
 
 For each N, in the same process: a PCHC runner on the task (randomised envs, as in training) runs warm-up and
 timed iterations of rsl-rl's loop (rollout of num_steps_per_env steps: act, env.step, process_env_step; then
 compute_returns and the PPO update), collection and learning timed apart. Two physics limits of the same model
-variants and thread count, BatchedMuJoCo.step alone for as many policy steps: "standing" from standing states at
+variants and thread count (or device), the backend's step alone for as many policy steps: "standing" from standing states at
 the default pose (robots at rest: the cheapest contacts), and "replay" from the rollout's own start states with the
 controls the policy sent (the physics work training really asked for). Prints env steps per second of collection,
 of the whole loop, of both limits, and the ratios whole loop / limit.
@@ -19,20 +20,28 @@ import time
 
 import torch
 
+from pchc_rsl.cli.checks import check_device, check_physics
 from pchc_rsl.cli.common import make_runner
 from pchc_rsl.configs import task_config
-from pchc_rsl.envs.physics import BatchedMuJoCo
+from pchc_rsl.envs.physics_backend import make_physics
+
+
+def sync(device: str) -> None:
+    """Wait for the GPU's queued work, so that wall-clock times mean something there."""
+    if torch.device(device).type == "cuda":
+        torch.cuda.synchronize(device)
 
 
 def timed_iteration(runner, record: list | None = None) -> tuple[float, float]:
     """One iteration of OnPolicyRunner.learn's body; (collection s, learning s). With ``record``, appends the
-    physics state at the start and every control the env sent to the physics."""
+    joint state (qpos, qvel) at the start and every control the env sent to the physics."""
     alg, env = runner.alg, runner.env
     if record is not None:
-        record.append(env.physics.state.copy())
+        record.append((env.physics.qpos.clone(), env.physics.qvel.clone()))
         step = env.physics.step
-        env.physics.step = lambda ctrl: (record.append(ctrl.copy()), step(ctrl))[1]
+        env.physics.step = lambda ctrl: (record.append(ctrl.clone()), step(ctrl))[1]
     obs = env.get_observations().to(runner.device)
+    sync(runner.device)
     start = time.perf_counter()
     with torch.inference_mode():
         for _ in range(runner.cfg["num_steps_per_env"]):
@@ -40,37 +49,49 @@ def timed_iteration(runner, record: list | None = None) -> tuple[float, float]:
             obs, rewards, dones, extras = env.step(actions.to(env.device))
             obs, rewards, dones = obs.to(runner.device), rewards.to(runner.device), dones.to(runner.device)
             alg.process_env_step(obs, rewards, dones, extras)
+        sync(runner.device)
         collected = time.perf_counter()
         alg.compute_returns(obs)
     alg.update()
+    sync(runner.device)
     if record is not None:
         del env.physics.step  # back to the class' method
     return collected - start, time.perf_counter() - collected
 
 
+def bare_physics(env, threads: int):
+    """A second physics of the env's backend, model variants and device, for the limits."""
+    p = env.physics
+    return make_physics(env.cfg.physics, p.models, env.num_envs, p.substeps, threads, p.device,
+                        with_body_forces=p.body_forces is not None)
+
+
+def stepping_rate(bare, controls: list) -> float:
+    """[N] env steps per second of ``bare.step`` over these controls."""
+    bare.step(controls[0])  # warm-up (Warp on a GPU: captures its CUDA graph)
+    sync(bare.device)
+    start = time.perf_counter()
+    for ctrl in controls:
+        bare.step(ctrl)
+    sync(bare.device)
+    return bare.num_envs * len(controls) / (time.perf_counter() - start)
+
+
 def replay_rate(env, record: list, threads: int) -> float:
     """Bare physics from the recorded start state with the recorded controls: [N] env steps per second."""
-    physics = env.physics
-    bare = BatchedMuJoCo(physics.models, env.num_envs, physics.substeps, threads)
-    bare.state[:] = record[0]
-    start = time.perf_counter()
-    for ctrl in record[1:]:
-        bare.step(ctrl)
-    return env.num_envs * (len(record) - 1) / (time.perf_counter() - start)
+    bare = bare_physics(env, threads)
+    bare.set_qpos_qvel(torch.arange(env.num_envs, device=bare.device), *record[0])
+    return stepping_rate(bare, record[1:])
 
 
 def bare_physics_rate(env, steps: int, threads: int) -> float:
-    physics = env.physics
-    bare = BatchedMuJoCo(physics.models, env.num_envs, physics.substeps, threads,
-                         with_body_forces=physics.body_forces is not None)
+    """Bare physics holding the default pose from the env's reset states: [N] env steps per second."""
+    bare = bare_physics(env, threads)
     with torch.inference_mode():  # the env's buffers are inference tensors once stepped in that mode
         env.reset()
-    bare.state[:] = env.physics.state
-    ctrl = env.default_joint_pos.double().expand(env.num_envs, -1).numpy().copy()
-    start = time.perf_counter()
-    for _ in range(steps):
-        bare.step(ctrl)
-    return env.num_envs * steps / (time.perf_counter() - start)
+    bare.set_qpos_qvel(torch.arange(env.num_envs, device=bare.device), env.physics.qpos, env.physics.qvel)
+    ctrl = env.default_joint_pos.to(bare.qpos.dtype).expand(env.num_envs, -1).clone()
+    return stepping_rate(bare, [ctrl] * steps)
 
 
 def main() -> None:
@@ -79,16 +100,20 @@ def main() -> None:
     parser.add_argument("--num-envs", type=int, nargs="+", default=[256, 1024, 4096])
     parser.add_argument("--iterations", type=int, default=2, help="timed iterations (after one warm-up)")
     parser.add_argument("--threads", type=int, default=1, help="physics threads and torch threads")
-    parser.add_argument("--device", default="cpu")
+    parser.add_argument("--device", default="cpu", help="torch device (Warp's physics runs there too)")
+    parser.add_argument("--physics", choices=["mujoco", "warp"], default="mujoco")
     args = parser.parse_args()
+    check_device(args.device)
+    check_physics(args.physics)
     torch.set_num_threads(args.threads)
-    print(f"{args.task}, {args.threads} thread(s), device {args.device}; env steps/s; median of {args.iterations}")
+    print(f"{args.task}, {args.physics} physics, {args.threads} thread(s), device {args.device}; env steps/s; "
+          f"median of {args.iterations}")
     print(f"{'N':>6}{'collect s':>11}{'learn s':>9}{'collect/s':>11}{'loop/s':>9}{'standing/s':>12}{'replay/s':>10}"
           f"{'loop/standing':>15}{'loop/replay':>13}")
     for n in args.num_envs:
         cfg = task_config(args.task)
         cfg.num_envs, cfg.device = n, args.device
-        cfg.env.num_threads = args.threads
+        cfg.env.num_threads, cfg.env.physics = args.threads, args.physics
         runner = make_runner(cfg)
         runner.alg.train_mode()
         timed_iteration(runner)  # warm-up

@@ -42,6 +42,23 @@ def check_task_config(cfg: TaskConfig) -> None:
             f"of a rollout (num_envs x runner.num_steps_per_env); lower it or raise num_envs."
         )
     check_device(cfg.device)
+    check_physics(getattr(cfg.env, "physics", None))
+
+
+def check_physics(backend: str | None) -> None:
+    """ValueError unless the G1 physics backend exists and is installed (None: the task has one physics)."""
+    if backend is None:
+        return
+    from pchc_rsl.envs.physics_backend import BACKENDS
+
+    if backend not in BACKENDS:
+        raise ValueError(f"env.physics must be one of {', '.join(BACKENDS)}, got {backend!r}.")
+    if backend == "warp":
+        try:
+            import mujoco_warp  # noqa: F401
+        except ImportError:
+            raise ValueError("--physics warp needs MuJoCo Warp, which is not installed: "
+                             "pip install 'pchc-rsl[warp]'.") from None
 
 
 def check_device(device: str) -> None:

@@ -341,11 +341,12 @@ def run_viewer(env, policy, preference, seconds: float | None) -> int:
                 falls += int(extras["episode_metrics"]["fell"].sum())
                 steps += 1
                 with handle.lock():
-                    data.qpos[:] = env.physics.qpos[0]
+                    data.qpos[:] = env.physics.qpos[0].cpu().numpy()
                     mujoco.mj_forward(model, data)
                     handle.user_scn.ngeom = 0
                     if bool(env.pushes.active[0]):
-                        add_push_arrow(handle.user_scn, env.physics.qpos[0, :3], env.pushes.direction[0].numpy())
+                        add_push_arrow(handle.user_scn, env.physics.qpos[0, :3].cpu().numpy(),
+                                       env.pushes.direction[0].cpu().numpy())
                 rows = [preference_row(env, 0)] + live_metrics(env, 0, falls)
                 handle.set_texts([
                     (None, mujoco.mjtGridPos.mjGRID_TOPLEFT, "\n".join(n for n, _ in rows),

@@ -39,6 +39,9 @@ def build_parser(task_help: str = "") -> argparse.ArgumentParser:
     parser.add_argument("--threads", type=arguments.positive_int,
                         help="CPU threads for the physics (while collecting) and torch (while learning); default: "
                              "the cores this process may use")
+    parser.add_argument("--physics", choices=["mujoco", "warp"],
+                        help="G1 physics: C MuJoCo on CPU threads (default) or MuJoCo Warp on --device (the "
+                        "pchc-rsl[warp] extra)")
     parser.add_argument("--actor", choices=sorted(ACTOR_CLASSES), help="actor variant (default: pci)")
     parser.add_argument("--fixed-preference", type=arguments.preference, metavar="L1,L2",
                         help="hold lambda constant during training (baselines); required by --actor no-preference")
@@ -111,6 +114,10 @@ def resolve(args) -> tuple:
                       ("device", "device"), ("logger", "runner.logger"), ("logger_project", "runner.logger_project")):
         if getattr(args, flag) is not None:
             flags.append(f"{key}={getattr(args, flag)}")
+    if args.physics is not None:
+        if not hasattr(cfg.env, "physics"):
+            raise ValueError(f"task '{cfg.name}' has one physics; --physics applies to the G1 tasks.")
+        flags.append(f"env.physics={args.physics}")
     if args.actor is not None:
         from pchc_rsl.configs import select_actor
 

@@ -1,0 +1,143 @@
+"""Batched MuJoCo Warp: the whole batch on one device (a GPU, or Warp's slow CPU device), behind BatchedMuJoCo's
+interface (``physics.py``).
+
+The env reads torch views of Warp's own arrays (``wp.to_torch``: no copies), so observations and rewards stay on
+the device. Per-env physical randomisation keeps its bounded set of model variants: every model field in which the
+variants differ gets a leading batch dimension of V, and world i reads variant i mod V, as on the C backend. On a
+CUDA device the substep loop is captured once as a CUDA graph and replayed every step.
+
+Differences from C MuJoCo: Warp computes in float32, and it does not reset a diverged world by itself (a diverged
+world shows as non-finite or absurd velocities, which the env catches and resets). A reset runs a forward pass on
+every world (Warp has no per-world forward); it leaves the state of the other worlds untouched.
+"""
+
+from __future__ import annotations
+
+import logging
+
+import mujoco
+import numpy as np
+import torch
+
+try:
+    import mujoco_warp as mjw
+    import warp as wp
+except ImportError as error:  # the optional extra
+    raise ImportError(
+        "--physics warp needs MuJoCo Warp: pip install 'pchc-rsl[warp]' (mujoco-warp matching mujoco "
+        f"{mujoco.__version__}). ({error})"
+    ) from None
+
+RANDOMIZED_FIELDS = ("geom_friction", "body_mass", "body_subtreemass", "body_inertia", "actuator_gainprm",
+                     "actuator_biasprm")
+"""Model fields that physical randomisation may change (g1_randomization.py); the ones that differ get batched."""
+
+
+class WarpMuJoCo:
+    """N environments as N Warp worlds of one model (see the module docstring for randomised variants)."""
+
+    def __init__(self, models: mujoco.MjModel | list[mujoco.MjModel], num_envs: int, substeps: int,
+                 device: str = "cuda:0", with_body_forces: bool = False, contacts_per_env: int = 64,
+                 constraints_per_env: int = 320) -> None:
+        self.models = models if isinstance(models, list) else [models] * num_envs
+        if len(self.models) != num_envs:
+            raise ValueError(f"Got {len(self.models)} models for {num_envs} envs.")
+        self.model = self.models[0]
+        self.num_envs, self.substeps = num_envs, substeps
+        self.device = str(torch.device(device))
+        wp.config.log_level = max(wp.config.log_level, logging.WARNING)  # no line per kernel module loaded
+        wp.init()
+        self.wp_device = wp.get_device(self.device)
+        variants = _variants(self.models)
+        m = self.model
+        with wp.ScopedDevice(self.wp_device):
+            batched = [name for name in RANDOMIZED_FIELDS
+                       if any(not np.array_equal(getattr(v, name), getattr(m, name)) for v in variants[1:])]
+            self.wp_model = mjw.put_model(m, batch_sizes={name: len(variants) for name in batched})
+            for name in batched:
+                field = wp.to_torch(getattr(self.wp_model, name))
+                values = np.stack([getattr(v, name) for v in variants])
+                field.copy_(torch.from_numpy(values).reshape(field.shape))
+            self.data = mjw.make_data(m, nworld=num_envs, nconmax=contacts_per_env, njmax=constraints_per_env)
+            self._sensor_records = wp.zeros((substeps, num_envs, m.nsensordata), dtype=float)
+            self._qvel_records = wp.zeros((substeps, num_envs, m.nv), dtype=float)
+        d = self.data
+        self.qpos, self.qvel = wp.to_torch(d.qpos), wp.to_torch(d.qvel)
+        self.substep_sensors = wp.to_torch(self._sensor_records).permute(1, 0, 2)
+        self.substep_qvel = wp.to_torch(self._qvel_records).permute(1, 0, 2)
+        self.body_forces = wp.to_torch(d.xfrc_applied) if with_body_forces else None
+        self.diverged = torch.zeros(num_envs, dtype=torch.bool, device=self.device)
+        """Always False: Warp does not reset a diverged world (the env's NaN and velocity checks catch it)."""
+        self._ctrl = wp.to_torch(d.ctrl)
+        self._graph = None
+        self.forward_all()
+        for k in range(substeps):
+            self.substep_sensors[:, k] = wp.to_torch(d.sensordata)
+            self.substep_qvel[:, k] = self.qvel
+
+    def _substeps(self) -> None:
+        d, n = self.data, self.num_envs
+        for k in range(self.substeps):
+            mjw.step(self.wp_model, d)
+            wp.copy(self._sensor_records, d.sensordata, dest_offset=k * n * self.model.nsensordata,
+                    count=n * self.model.nsensordata)
+            wp.copy(self._qvel_records, d.qvel, dest_offset=k * n * self.model.nv, count=n * self.model.nv)
+
+    def step(self, ctrl: torch.Tensor) -> None:
+        """Advance every world ``substeps`` physics steps holding ``ctrl`` [N, nu] (and ``body_forces``)."""
+        self._ctrl.copy_(ctrl)
+        with wp.ScopedDevice(self.wp_device), wp.ScopedStream(self._stream()):
+            if not self.wp_device.is_cuda:
+                self._substeps()
+                return
+            if self._graph is None:
+                with wp.ScopedCapture() as capture:
+                    self._substeps()
+                self._graph = capture.graph
+            wp.capture_launch(self._graph)
+
+    def _stream(self):
+        """Torch's current stream on a GPU, so Warp's work and torch's reads of it are ordered."""
+        return wp.stream_from_torch(torch.cuda.current_stream(self.device)) if self.wp_device.is_cuda else None
+
+    def sensor_columns(self, name: str) -> slice:
+        sensor = self.model.sensor(name)
+        return slice(int(sensor.adr[0]), int(sensor.adr[0] + sensor.dim[0]))
+
+    def sanitize(self, env_ids: torch.Tensor) -> None:
+        """Zero these worlds' non-finite state, warm start and records (diverged worlds, about to reset)."""
+        d = self.data
+        for field in (d.qpos, d.qvel, d.act, d.qacc_warmstart):
+            values = wp.to_torch(field)
+            if values.numel():
+                values[env_ids] = torch.nan_to_num(values[env_ids], nan=0.0, posinf=0.0, neginf=0.0)
+        self.substep_sensors[env_ids] = 0.0
+        self.substep_qvel[env_ids] = 0.0
+
+    def set_qpos_qvel(self, env_ids: torch.Tensor, qpos: torch.Tensor, qvel: torch.Tensor) -> None:
+        """Reset these worlds to (qpos, qvel) at rest (time 0, no actuator state, no warm start); a forward pass fills
+        their sensors and substep records, as on the C backend."""
+        d = self.data
+        ids = torch.as_tensor(env_ids, device=self.device)
+        self.qpos[ids] = qpos.to(self.qpos)
+        self.qvel[ids] = qvel.to(self.qvel)
+        for field in (d.act, d.qacc_warmstart, d.time):
+            values = wp.to_torch(field)
+            if values.numel():
+                values[ids] = 0.0
+        self.forward_all()
+        self.substep_sensors[ids] = wp.to_torch(d.sensordata)[ids].unsqueeze(1)
+        self.substep_qvel[ids] = self.qvel[ids].unsqueeze(1)
+
+    def forward_all(self) -> None:
+        """mjw.forward on every world: positions, velocities and sensors of the current state; the state stays."""
+        with wp.ScopedDevice(self.wp_device), wp.ScopedStream(self._stream()):
+            mjw.forward(self.wp_model, self.data)
+
+
+def _variants(models: list[mujoco.MjModel]) -> list[mujoco.MjModel]:
+    """The distinct models, in order; env i must use variant i mod V (as g1_randomization.model_variants makes)."""
+    variants = list({id(m): m for m in models}.values())
+    if any(models[i] is not variants[i % len(variants)] for i in range(len(models))):
+        raise ValueError("WarpMuJoCo needs env i to use model variant i mod V (see g1_randomization.py).")
+    return variants
