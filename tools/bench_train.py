@@ -6,10 +6,11 @@
 For each N, in the same process: a PCHC runner on the task (randomised envs, as in training) runs warm-up and
 timed iterations of rsl-rl's loop (rollout of num_steps_per_env steps: act, env.step, process_env_step; then
 compute_returns and the PPO update), collection and learning timed apart. Two physics limits of the same model
-variants and thread count (or device), the backend's step alone for as many policy steps: "standing" from standing states at
-the default pose (robots at rest: the cheapest contacts), and "replay" from the rollout's own start states with the
-controls the policy sent (the physics work training really asked for). Prints env steps per second of collection,
-of the whole loop, of both limits, and the ratios whole loop / limit.
+variants and thread count (or device), the backend's step alone for as many policy steps: "standing" from standing
+states at the default pose (robots at rest: the cheapest contacts), and "replay" from the rollout's own start states
+with the controls the policy sent (the physics work training really asked for). Prints env steps per second of collection,
+of the whole loop, of both limits, and the ratios whole loop / limit; ``--configs`` times config variants side by
+side in the same run (e.g. fewer PPO epochs against the task's).
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ import torch
 
 from pchc_rsl.cli.checks import check_device, check_physics
 from pchc_rsl.cli.common import make_runner
+from pchc_rsl.cli.overrides import apply_overrides
 from pchc_rsl.configs import task_config
 from pchc_rsl.envs.physics_backend import make_physics
 
@@ -102,31 +104,41 @@ def main() -> None:
     parser.add_argument("--threads", type=int, default=1, help="physics threads and torch threads")
     parser.add_argument("--device", default="cpu", help="torch device (Warp's physics runs there too)")
     parser.add_argument("--physics", choices=["mujoco", "warp"], default="mujoco")
+    parser.add_argument("--motion-files", nargs="+", metavar="PATH",
+                        help="AMP reference motions, as in training (without them the AMP update is not timed)")
+    parser.add_argument("--configs", nargs="+", default=[""], metavar="'KEY=VALUE ...'",
+                        help="config variants timed side by side, each a space-separated list of overrides ('' = "
+                        "the task's), e.g. '' 'runner.algorithm.num_learning_epochs=2'")
     args = parser.parse_args()
     check_device(args.device)
     check_physics(args.physics)
     torch.set_num_threads(args.threads)
-    print(f"{args.task}, {args.physics} physics, {args.threads} thread(s), device {args.device}; env steps/s; "
-          f"median of {args.iterations}")
+    print(f"{args.task}, {args.physics} physics, {args.threads} thread(s), device {args.device}, AMP "
+          f"{'on' if args.motion_files else 'off'}; env steps/s; median of {args.iterations}")
     print(f"{'N':>6}{'collect s':>11}{'learn s':>9}{'collect/s':>11}{'loop/s':>9}{'standing/s':>12}{'replay/s':>10}"
-          f"{'loop/standing':>15}{'loop/replay':>13}")
+          f"{'loop/standing':>15}{'loop/replay':>13}  config")
     for n in args.num_envs:
-        cfg = task_config(args.task)
-        cfg.num_envs, cfg.device = n, args.device
-        cfg.env.num_threads, cfg.env.physics = args.threads, args.physics
-        runner = make_runner(cfg)
-        runner.alg.train_mode()
-        timed_iteration(runner)  # warm-up
-        record: list = []
-        times = [timed_iteration(runner, record if i == 0 else None) for i in range(args.iterations)]
-        collect = statistics.median(t[0] for t in times)
-        learn = statistics.median(t[1] for t in times)
-        steps = n * cfg.runner.num_steps_per_env
-        replay = replay_rate(runner.env, record, args.threads)
-        standing = bare_physics_rate(runner.env, cfg.runner.num_steps_per_env, args.threads)
-        loop = steps / (collect + learn)
-        print(f"{n:>6}{collect:>11.2f}{learn:>9.2f}{steps / collect:>11.0f}{loop:>9.0f}{standing:>12.0f}{replay:>10.0f}"
-              f"{loop / standing:>15.2f}{loop / replay:>13.2f}", flush=True)
+        for overrides in args.configs:
+            cfg = task_config(args.task)
+            cfg.num_envs, cfg.device = n, args.device
+            cfg.env.num_threads, cfg.env.physics = args.threads, args.physics
+            if args.motion_files:
+                cfg.runner.algorithm.amp_cfg.motion_files = list(args.motion_files)
+            apply_overrides(cfg, overrides.split())
+            runner = make_runner(cfg)
+            runner.alg.train_mode()
+            timed_iteration(runner)  # warm-up
+            record: list = []
+            times = [timed_iteration(runner, record if i == 0 else None) for i in range(args.iterations)]
+            collect = statistics.median(t[0] for t in times)
+            learn = statistics.median(t[1] for t in times)
+            steps = n * cfg.runner.num_steps_per_env
+            replay = replay_rate(runner.env, record, args.threads)
+            standing = bare_physics_rate(runner.env, cfg.runner.num_steps_per_env, args.threads)
+            loop = steps / (collect + learn)
+            print(f"{n:>6}{collect:>11.2f}{learn:>9.2f}{steps / collect:>11.0f}{loop:>9.0f}{standing:>12.0f}"
+                  f"{replay:>10.0f}{loop / standing:>15.2f}{loop / replay:>13.2f}  {overrides or 'task default'}",
+                  flush=True)
 
 
 if __name__ == "__main__":
