@@ -87,14 +87,14 @@ class WarpMuJoCo:
         """Advance every world ``substeps`` physics steps holding ``ctrl`` [N, nu] (and ``body_forces``)."""
         self._ctrl.copy_(ctrl)
         with wp.ScopedDevice(self.wp_device), wp.ScopedStream(self._stream()):
-            if not self.wp_device.is_cuda:
-                self._substeps()
+            if self._graph is not None:
+                wp.capture_launch(self._graph)
                 return
-            if self._graph is None:
-                with wp.ScopedCapture() as capture:
+            self._substeps()  # eagerly: the first step on a GPU also loads every kernel before the capture
+            if self.wp_device.is_cuda:
+                with wp.ScopedCapture() as capture:  # records the next steps' work, runs nothing now
                     self._substeps()
                 self._graph = capture.graph
-            wp.capture_launch(self._graph)
 
     def _stream(self):
         """Torch's current stream on a GPU, so Warp's work and torch's reads of it are ordered."""
