@@ -3,6 +3,8 @@
 import hashlib
 import json
 import os
+import signal
+import subprocess
 import sys
 
 import pytest
@@ -175,6 +177,27 @@ def test_ctrl_c_saves_the_last_finished_iteration(tmp_path, monkeypatch, capsys)
     out = capsys.readouterr().out
     assert f"saved {run / 'model_1.pt'}" in out and "Traceback" not in out
     assert not list(run.glob("*.tmp"))
+
+
+def test_sigterm_saves_like_ctrl_c_even_in_a_background_job_that_ignores_sigint(tmp_path):
+    """A run started with ``&`` by a script has SIGINT ignored; ``kill`` (SIGTERM) must still save and stop."""
+    run = tmp_path / "run"
+    command = [sys.executable, "-m", "pchc_rsl.cli.train", *SMALL, "--max-iterations", "100000", "--threads", "1",
+               "--log-dir", str(run)]
+    ignore_sigint = lambda: signal.signal(signal.SIGINT, signal.SIG_IGN)  # noqa: E731  (as a background job)
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                               preexec_fn=ignore_sigint)
+    lines = []
+    for line in process.stdout:  # wait for iteration 3 to be logged
+        lines.append(line)
+        if line.startswith("it ") and int(line.split()[1].split("/")[0]) >= 3:
+            break
+    process.send_signal(signal.SIGTERM)
+    out = "".join(lines) + process.stdout.read()
+    assert process.wait(timeout=60) == 130, out
+    saved = sorted(run.glob("model_*.pt"), key=lambda p: int(p.stem.split("_")[1]))
+    assert saved and int(saved[-1].stem.split("_")[1]) >= 3, out
+    assert "interrupted; saved" in out and "Traceback" not in out
 
 
 def test_ctrl_c_before_the_first_iteration_leaves_no_folder(tmp_path, monkeypatch, capsys):

@@ -8,6 +8,7 @@ import datetime
 import os
 import re
 import shlex
+import signal
 import sys
 import time
 
@@ -170,6 +171,7 @@ def train(cfg, config: dict, log_dir: str, args) -> None:
 
     created = first_missing_folder(log_dir)
     start = time.time()
+    _stop_on_signals()
     try:
         print(f"{PROG}: {apply_threads(cfg, args.threads)}", flush=True)
         runner = make_runner(cfg, log_dir, verbose=args.verbose, config=config)
@@ -201,6 +203,17 @@ def train(cfg, config: dict, log_dir: str, args) -> None:
         remove_if_unused(log_dir, created)
         raise
     _summary(cfg, log_dir, checkpoints_in(log_dir)[-1], start)
+
+
+def _stop_on_signals() -> None:
+    """SIGTERM (``kill``, a cluster scheduler's warning) and SIGINT stop training as Ctrl-C does: the last finished
+    iteration is saved. SIGINT is handled even when the shell started the run in the background with it ignored."""
+
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt
+
+    for number in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(number, interrupt)
 
 
 def _summary(cfg, log_dir: str, checkpoint: str, start: float) -> None:
