@@ -117,9 +117,10 @@ class PreferencePolicyExport(nn.Module):
 
 
 class BatchedExperts(nn.Module):
-    """E independent MLPs evaluated as batched matrix products: [N, in] -> [E, N, out].
+    """E independent MLPs with their weights stacked per layer: [N, in] -> [E, N, out].
 
-    One einsum/baddbmm per layer instead of E small Linear calls: fewer kernels and fewer ONNX nodes.
+    Evaluated expert by expert (one addmm per layer and expert): on CPUs, E matrix products of the whole batch train
+    about 15% faster than one batched product (tools/bench_train.py), with the same result.
     Each expert is initialised like nn.Linear (uniform in +-1/sqrt(fan_in)).
     """
 
@@ -135,10 +136,13 @@ class BatchedExperts(nn.Module):
         self.activation = resolve_nn_activation(activation)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        h = torch.einsum("ni,eio->eno", x, self.weights[0]) + self.biases[0]
-        for weight, bias in zip(self.weights[1:], self.biases[1:]):
-            h = torch.baddbmm(bias, self.activation(h), weight)
-        return h
+        outputs = []
+        for e in range(self.weights[0].shape[0]):
+            h = torch.addmm(self.biases[0][e], x, self.weights[0][e])
+            for weight, bias in zip(self.weights[1:], self.biases[1:]):
+                h = torch.addmm(bias[e], self.activation(h), weight[e])
+            outputs.append(h)
+        return torch.stack(outputs)
 
 
 class HistoryExpertsHead(nn.Module):
