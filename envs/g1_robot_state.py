@@ -6,7 +6,6 @@ import mujoco
 import torch
 
 
-
 def quat_rotate_inverse(q: torch.Tensor, v: torch.Tensor) -> torch.Tensor:
     """Rotate world vectors v [N, 3] into the frame of unit quaternions q [N, 4] (w, x, y, z)."""
     w, xyz = q[:, :1], q[:, 1:]
