@@ -178,6 +178,9 @@ def run_episodes(env, policy, preference, episodes: int, progress: str = "") -> 
 
 
 def _progress(label: str, done: int, total: int, end: bool = False) -> None:
+    """A bar redrawn in place on a terminal; in a log file (not a terminal) only the finished line."""
+    if not end and not sys.stderr.isatty():
+        return
     width = 30
     filled = int(width * done / max(total, 1))
     sys.stderr.write(f"\r{label} [{'#' * filled}{'.' * (width - filled)}] {done}/{total}")
