@@ -35,8 +35,8 @@ class RobotState:
         feet = ("left_foot", "right_foot")
 
         def columns(name: str) -> list[int]:
-            cols = physics.sensor_columns(name)
-            return list(range(cols.start, cols.stop))
+            sensor = model.sensor(name)
+            return list(range(int(sensor.adr[0]), int(sensor.adr[0] + sensor.dim[0])))
 
         index = {
             "foot_pos": [columns(f"{s}_pos") for s in feet],  # [2, 3]

@@ -78,10 +78,6 @@ class BatchedMuJoCo:
         # which restarts its clock: the state looks healthy, so diverged envs are recognised by their time.
         self.diverged = torch.from_numpy(np.abs(self.state[:, 0] - expected_time) > 0.5 * self.model.opt.timestep)
 
-    def sensor_columns(self, name: str) -> slice:
-        sensor = self.model.sensor(name)
-        return slice(int(sensor.adr[0]), int(sensor.adr[0] + sensor.dim[0]))
-
     def sanitize(self, env_ids: torch.Tensor) -> None:
         """Replace NaN and inf in these envs' state by 0 and clear their records (diverged envs, about to reset)."""
         rows = torch.as_tensor(env_ids).numpy()

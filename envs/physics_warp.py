@@ -70,10 +70,7 @@ class WarpMuJoCo:
         """Always False: Warp does not reset a diverged world (the env's NaN and velocity checks catch it)."""
         self._ctrl = wp.to_torch(d.ctrl)
         self._graph = None
-        self.forward_all()
-        for k in range(substeps):
-            self.substep_sensors[:, k] = wp.to_torch(d.sensordata)
-            self.substep_qvel[:, k] = self.qvel
+        self._forward_and_record(slice(None))
 
     def _substeps(self) -> None:
         d, n = self.data, self.num_envs
@@ -100,10 +97,6 @@ class WarpMuJoCo:
         """Torch's current stream on a GPU, so Warp's work and torch's reads of it are ordered."""
         return wp.stream_from_torch(torch.cuda.current_stream(self.device)) if self.wp_device.is_cuda else None
 
-    def sensor_columns(self, name: str) -> slice:
-        sensor = self.model.sensor(name)
-        return slice(int(sensor.adr[0]), int(sensor.adr[0] + sensor.dim[0]))
-
     def sanitize(self, env_ids: torch.Tensor) -> None:
         """Zero these worlds' non-finite state, warm start and records (diverged worlds, about to reset)."""
         d = self.data
@@ -125,14 +118,15 @@ class WarpMuJoCo:
             values = wp.to_torch(field)
             if values.numel():
                 values[ids] = 0.0
-        self.forward_all()
-        self.substep_sensors[ids] = wp.to_torch(d.sensordata)[ids].unsqueeze(1)
-        self.substep_qvel[ids] = self.qvel[ids].unsqueeze(1)
+        self._forward_and_record(ids)
 
-    def forward_all(self) -> None:
-        """mjw.forward on every world: positions, velocities and sensors of the current state; the state stays."""
+    def _forward_and_record(self, ids) -> None:
+        """mjw.forward on every world (the state stays), then every substep slot of these worlds' records holds
+        their current sensors and joint velocities."""
         with wp.ScopedDevice(self.wp_device), wp.ScopedStream(self._stream()):
             mjw.forward(self.wp_model, self.data)
+        self.substep_sensors[ids] = wp.to_torch(self.data.sensordata)[ids].unsqueeze(1)
+        self.substep_qvel[ids] = self.qvel[ids].unsqueeze(1)
 
 
 def _variants(models: list[mujoco.MjModel]) -> list[mujoco.MjModel]:

@@ -8,9 +8,9 @@ timed iterations of rsl-rl's loop (rollout of num_steps_per_env steps: act, env.
 compute_returns and the PPO update), collection and learning timed apart. Two physics limits of the same model
 variants and thread count (or device), the backend's step alone for as many policy steps: "standing" from standing
 states at the default pose (robots at rest: the cheapest contacts), and "replay" from the rollout's own start states
-with the controls the policy sent (the physics work training really asked for). Prints env steps per second of collection,
-of the whole loop, of both limits, and the ratios whole loop / limit; ``--configs`` times config variants side by
-side in the same run (e.g. fewer PPO epochs against the task's).
+with the controls the policy sent (the physics work training really asked for). Prints env steps per second of
+collection, of the whole loop, of both limits, and the ratios whole loop / limit; ``--configs`` times config
+variants side by side in the same run (e.g. fewer PPO epochs against the task's).
 """
 
 from __future__ import annotations
