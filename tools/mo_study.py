@@ -4,7 +4,9 @@
     python tools/mo_study.py --out ~/pchc-runs/mo_study --report-only --docs docs/results
 
 Resumable: a cell whose folder holds a result.json is skipped, so the study continues where it stopped. Cells run
-seed by seed (all of seed 1 first), so a partial study is balanced. Three groups of cells:
+seed by seed (all of seed 1 first), so a partial study is balanced. Several workers on one machine can share a study
+(start the same command once per core): each claims its next cell with a lock file and skips cells another live
+worker holds. Three groups of cells:
 - main: every task x {pci, pci-blind, gated, mlp}, 1M env steps each (the paper's claim that PCI beats the gate);
 - claim (d): on mo-halfcheetah-v5, five fixed-preference policies at lambda_1 = 0, .25, .5, .75, 1, each with a
   fifth of the budget, whose five points form one front, next to the single PCHC policy's;
@@ -70,16 +72,68 @@ def study_cells(seeds: list[int], steps: int) -> list[Cell]:
     return cells
 
 
+def claim_cell(folder: str) -> bool:
+    """Take the cell for this process: False when it is finished or a live worker holds it.
+
+    The claim is ``<folder>.claim`` holding the worker's pid, linked into place whole (so two workers cannot both
+    win, and no one reads it half-written); a claim whose pid is gone is a worker that was stopped, and its
+    half-written folder is cleared.
+    """
+    claim = folder + ".claim"
+    os.makedirs(os.path.dirname(folder), exist_ok=True)
+    mine = f"{claim}.{os.getpid()}"
+    with open(mine, "w") as f:
+        f.write(str(os.getpid()))
+    try:
+        while not os.path.isfile(os.path.join(folder, "result.json")):
+            try:
+                os.link(mine, claim)
+            except FileExistsError:
+                if process_alive(read_pid(claim)):
+                    return False
+                os.remove(claim)  # a stopped worker's claim
+                continue
+            if os.path.isdir(folder):  # interrupted before its result.json: start again from scratch
+                shutil.rmtree(folder)
+            os.makedirs(folder)
+            return True
+        return False
+    finally:
+        os.remove(mine)
+
+
+def read_pid(path: str) -> int:
+    try:
+        with open(path) as f:
+            return int(f.read().strip() or 0)
+    except (OSError, ValueError):
+        return 0
+
+
+def process_alive(pid: int) -> bool:
+    if pid <= 0:
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
 def run_cell(cell: Cell, root: str) -> None:
     folder = cell.folder(root)
-    if os.path.isdir(folder):  # a cell interrupted before its result.json: start it again from scratch
-        shutil.rmtree(folder)
-    os.makedirs(folder)
+    if not claim_cell(folder):
+        return
     command = [sys.executable, os.path.join(HERE, "mo_benchmark.py"), "--task", cell.task, "--seed", str(cell.seed),
                "--out", folder, *cell.args]
     start = time.time()
-    with open(os.path.join(folder, "log.txt"), "w") as log:
-        code = subprocess.call(command, stdout=log, stderr=subprocess.STDOUT)
+    try:
+        with open(os.path.join(folder, "log.txt"), "w") as log:
+            code = subprocess.call(command, stdout=log, stderr=subprocess.STDOUT)
+    finally:
+        os.remove(folder + ".claim")
     status = "done" if code == 0 else f"FAILED (exit {code}, see {folder}/log.txt)"
     print(f"[{time.strftime('%H:%M:%S')}] {cell.task} {cell.name} seed {cell.seed}: {status} in "
           f"{time.time() - start:.0f} s", flush=True)
