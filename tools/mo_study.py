@@ -42,6 +42,8 @@ CLAIM_D_PREFERENCES = [0.0, 0.25, 0.5, 0.75, 1.0]
 ROUTING_TASKS = ["mo-hopper-2obj-v5", "mo-halfcheetah-v5"]
 ROUTING_SETTINGS = {"pci-s3": ["--routing-scale", "3"], "pci-s30": ["--routing-scale", "30"],
                     "pci-c0.5": ["--preference-concentration", "0.5"]}
+ROUTING_VALUES = {"pci": (10.0, 1.0), "pci-s3": (3.0, 1.0), "pci-s30": (30.0, 1.0), "pci-c0.5": (10.0, 0.5)}
+"""(routing scale s, Dirichlet concentration of the training preferences) of each routing row."""
 
 
 @dataclass
@@ -150,6 +152,24 @@ def load_results(cells: list[Cell], root: str) -> dict[tuple[str, str], list[dic
     return results
 
 
+def expert_training_shares(scale: float, concentration: float, points: int = 20001) -> np.ndarray:
+    """[E] mean routing weight of each of the five expert positions over the training preferences (2 objectives).
+
+    lambda_1 ~ Beta(c, c) (the Dirichlet's marginal); the expectation is taken on the distribution's quantile grid,
+    so it is exact up to the grid even where the density is unbounded (c < 1). Why it matters: an expert trains on
+    the samples in proportion to its weight, so this is each expert's share of the training data.
+    """
+    import torch
+    from scipy.stats import beta
+
+    from pchc_rsl.preference import routing_weights
+
+    lam_1 = torch.as_tensor(beta.ppf((np.arange(points) + 0.5) / points, concentration, concentration))
+    lam = torch.stack([lam_1, 1 - lam_1], dim=-1)
+    positions = torch.tensor([0.0, 0.25, 0.5, 0.75, 1.0], dtype=lam.dtype)
+    return routing_weights(lam, positions, scale=scale).mean(0).numpy()
+
+
 def mean_std(values: list[float]) -> str:
     if not values:
         return "-"
@@ -226,18 +246,21 @@ def markdown_report(results: dict, seeds: list[int], steps: int, total_cells: in
         "## Routing scale and preference concentration (PCI)",
         "",
         "Defaults: routing scale s = 10, Dirichlet concentration 1 (row pci). The end-point columns are the returns "
-        "at lambda = (1, 0) and (0, 1), where the end experts act.",
+        "at lambda = (1, 0) and (0, 1), where the end experts act. End-expert share: the mean routing weight of "
+        "each end expert (x = 0 and x = 1) over the training preferences, i.e. its share of the training data "
+        "(0.2 would be an equal share of five; computed, not measured).",
         "",
-        "| task | setting | HV | return at (1, 0) | return at (0, 1) | n |",
-        "|---|---|---|---|---|---|",
+        "| task | setting | HV | return at (1, 0) | return at (0, 1) | end-expert share | n |",
+        "|---|---|---|---|---|---|---|",
     ]
     for task in ROUTING_TASKS:
         for name in ["pci", *ROUTING_SETTINGS]:
             runs = results.get((task, name), [])
             first = [r["rows"][0]["mean_return"][0] for r in runs]
             last = [r["rows"][-1]["mean_return"][1] for r in runs]
+            share = expert_training_shares(*ROUTING_VALUES[name])[-1]
             lines.append(f"| {task} | {name} | {mean_std([r['hypervolume'] for r in runs])} | {mean_std(first)} | "
-                         f"{mean_std(last)} | {len(runs)} |")
+                         f"{mean_std(last)} | {share:.3f} | {len(runs)} |")
     lines += ["", "Figures: `mo_study_fronts.png` (every seed's front, per task and variant), "
               "`mo_study_hv.png` (hypervolume against env steps, mean over seeds), `mo_study_claim_d.png` (claim (d))."]
     return "\n".join(lines) + "\n"
