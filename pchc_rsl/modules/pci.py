@@ -193,10 +193,12 @@ class PCIHead(HistoryExpertsHead):
         self.register_buffer("positions", positions)  # [E, m] points on the simplex
         self.alpha0, self.beta0, self.scale = alpha0, beta0, scale
 
+    def routing(self, x: torch.Tensor, features: torch.Tensor | None = None) -> torch.Tensor:
+        """[N, E] expert weights: the preference's density at the expert positions."""
+        return routing_weights(x[:, self.obs_dim :], self.positions, self.alpha0, self.beta0, self.scale)
+
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        lam = x[:, self.obs_dim :]
-        weights = routing_weights(lam, self.positions, self.alpha0, self.beta0, self.scale)
-        return self.mix(self.features(x), weights)
+        return self.mix(self.features(x), self.routing(x))
 
 
 class GatedHead(HistoryExpertsHead):
@@ -208,10 +210,15 @@ class GatedHead(HistoryExpertsHead):
         gate_dim = self.features_dim + (0 if self.experts_see_preference else kwargs["preference_dim"])
         self.gate = MLP(gate_dim, num_experts, gate_hidden_dims, kwargs["activation"])
 
+    def routing(self, x: torch.Tensor, features: torch.Tensor | None = None) -> torch.Tensor:
+        """[N, E] expert weights: the learned gate's softmax."""
+        features = self.features(x) if features is None else features
+        gate_input = features if self.experts_see_preference else torch.cat([features, x[:, self.obs_dim :]], dim=-1)
+        return torch.softmax(self.gate(gate_input), dim=-1)
+
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         features = self.features(x)
-        gate_input = features if self.experts_see_preference else torch.cat([features, x[:, self.obs_dim :]], dim=-1)
-        return self.mix(features, torch.softmax(self.gate(gate_input), dim=-1))
+        return self.mix(features, self.routing(x, features))
 
 
 class _MixtureActor(PreferenceMLPModel):

@@ -1,0 +1,85 @@
+"""Which experts a mixture actor (PCI or gated) uses at each preference, over the states its own policy visits.
+
+    python tools/expert_usage.py RUN/model_final.pt [--preferences 11] [--steps 200] [--num-envs 8]
+
+Why: an expert trains on the samples in proportion to its routing weight. PCI's routing is fixed by lambda, so
+the preferences partition the data among the experts; the gated ablation learns its gate, and this shows whether
+it partitions them too or shares experts across preferences. Prints, per preference, each expert's mean weight
+the entropy of those mean weights and the mean entropy state by state (nats; log E when even), then each expert's share of all the routing
+weight over the preferences (what it trains on when lambda is sampled evenly).
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+import torch
+
+from pchc_rsl.cli.common import make_runner, restore_config, saved_config
+from pchc_rsl.evaluation import evenly_spaced_preferences
+from pchc_rsl.runners.checkpoint import load_checkpoint
+
+
+def entropy(weights: torch.Tensor) -> torch.Tensor:
+    return -(weights * weights.clamp_min(1e-12).log()).sum(-1)
+
+
+def mean_routing(runner, preference, steps: int) -> tuple[np.ndarray, float]:
+    """[E] routing weights averaged over ``steps`` policy steps of every env at a fixed preference, and the mean
+    entropy of the weights state by state (a gate can route sharply by state yet evenly on average)."""
+    head = runner.alg.actor.mlp
+    if not hasattr(head, "routing"):
+        raise SystemExit(f"The actor's head is a {type(head).__name__}, not a mixture of experts (PCI or gated).")
+    seen, entropies = [], []
+
+    def record(module, args):
+        weights = module.routing(args[0])
+        seen.append(weights.mean(0))
+        entropies.append(entropy(weights).mean())
+
+    hook = head.register_forward_pre_hook(record)
+    env, policy = runner.env, runner.get_inference_policy()
+    env.set_preference(preference)
+    obs = env.get_observations()
+    try:
+        with torch.inference_mode():
+            for _ in range(steps):
+                obs, *_ = env.step(policy(obs))
+    finally:
+        hook.remove()
+    return torch.stack(seen).mean(0).cpu().numpy(), torch.stack(entropies).mean().item()
+
+
+def main(argv: list[str] | None = None) -> np.ndarray:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("checkpoint")
+    parser.add_argument("--preferences", type=int, default=11, help="evenly spaced from (1, 0) to (0, 1)")
+    parser.add_argument("--steps", type=int, default=200, help="policy steps per preference")
+    parser.add_argument("--num-envs", type=int, default=8)
+    parser.add_argument("--seed", type=int, default=0)
+    args = parser.parse_args(argv)
+
+    cfg = restore_config(saved_config(args.checkpoint, load_checkpoint(args.checkpoint)))
+    if len(cfg.env.objective_names) != 2:
+        raise SystemExit("expert_usage walks the preferences from (1, 0) to (0, 1): two objectives only.")
+    cfg.num_envs, cfg.seed, cfg.device, cfg.fixed_preference = args.num_envs, args.seed, "cpu", None
+    runner = make_runner(cfg)
+    runner.load(args.checkpoint)
+    preferences = evenly_spaced_preferences(args.preferences)
+    routed = [mean_routing(runner, lam, args.steps) for lam in preferences]
+    weights = np.stack([w for w, _ in routed])  # [P, E]
+    experts = weights.shape[1]
+    print(f"{args.checkpoint}: mean routing weight of each expert, {args.num_envs} envs x {args.steps} steps each; "
+          f"entropy of the mean weights and mean entropy per state (nats, even: {np.log(experts):.3f})")
+    print("preference     " + " ".join(f"  e{j}  " for j in range(experts)) + "  entropy  per state")
+    for lam, w, (_, per_state) in zip(preferences, weights, routed):
+        mean_entropy = entropy(torch.as_tensor(w)).item()
+        print(f"({lam[0]:.2f}, {lam[1]:.2f})  " + " ".join(f"{x:6.3f}" for x in w) +
+              f"  {mean_entropy:7.3f}  {per_state:9.3f}")
+    print("share          " + " ".join(f"{x:6.3f}" for x in weights.mean(0)))
+    return weights
+
+
+if __name__ == "__main__":
+    main()
