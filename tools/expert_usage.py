@@ -51,7 +51,22 @@ def mean_routing(runner, preference, steps: int) -> tuple[np.ndarray, float]:
     return torch.stack(seen).mean(0).cpu().numpy(), torch.stack(entropies).mean().item()
 
 
-def main(argv: list[str] | None = None) -> np.ndarray:
+def expert_usage(checkpoint: str, preferences: int = 11, steps: int = 200, num_envs: int = 8, seed: int = 0) -> dict:
+    """preferences [P, 2], weights [P, E] (mean routing weights), entropy [P] (of those), per_state_entropy [P]."""
+    cfg = restore_config(saved_config(checkpoint, load_checkpoint(checkpoint)))
+    if len(cfg.env.objective_names) != 2:
+        raise SystemExit("expert_usage walks the preferences from (1, 0) to (0, 1): two objectives only.")
+    cfg.num_envs, cfg.seed, cfg.device, cfg.fixed_preference = num_envs, seed, "cpu", None
+    runner = make_runner(cfg)
+    runner.load(checkpoint)
+    lams = evenly_spaced_preferences(preferences)
+    routed = [mean_routing(runner, lam, steps) for lam in lams]
+    weights = np.stack([w for w, _ in routed])
+    return {"preferences": np.array(lams), "weights": weights, "entropy": entropy(torch.as_tensor(weights)).numpy(),
+            "per_state_entropy": np.array([e for _, e in routed])}
+
+
+def main(argv: list[str] | None = None) -> dict:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("checkpoint")
     parser.add_argument("--preferences", type=int, default=11, help="evenly spaced from (1, 0) to (0, 1)")
@@ -60,25 +75,15 @@ def main(argv: list[str] | None = None) -> np.ndarray:
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args(argv)
 
-    cfg = restore_config(saved_config(args.checkpoint, load_checkpoint(args.checkpoint)))
-    if len(cfg.env.objective_names) != 2:
-        raise SystemExit("expert_usage walks the preferences from (1, 0) to (0, 1): two objectives only.")
-    cfg.num_envs, cfg.seed, cfg.device, cfg.fixed_preference = args.num_envs, args.seed, "cpu", None
-    runner = make_runner(cfg)
-    runner.load(args.checkpoint)
-    preferences = evenly_spaced_preferences(args.preferences)
-    routed = [mean_routing(runner, lam, args.steps) for lam in preferences]
-    weights = np.stack([w for w, _ in routed])  # [P, E]
-    experts = weights.shape[1]
+    usage = expert_usage(args.checkpoint, args.preferences, args.steps, args.num_envs, args.seed)
+    experts = usage["weights"].shape[1]
     print(f"{args.checkpoint}: mean routing weight of each expert, {args.num_envs} envs x {args.steps} steps each; "
           f"entropy of the mean weights and mean entropy per state (nats, even: {np.log(experts):.3f})")
     print("preference     " + " ".join(f"  e{j}  " for j in range(experts)) + "  entropy  per state")
-    for lam, w, (_, per_state) in zip(preferences, weights, routed):
-        mean_entropy = entropy(torch.as_tensor(w)).item()
-        print(f"({lam[0]:.2f}, {lam[1]:.2f})  " + " ".join(f"{x:6.3f}" for x in w) +
-              f"  {mean_entropy:7.3f}  {per_state:9.3f}")
-    print("share          " + " ".join(f"{x:6.3f}" for x in weights.mean(0)))
-    return weights
+    for lam, w, e, per_state in zip(*(usage[k] for k in ("preferences", "weights", "entropy", "per_state_entropy"))):
+        print(f"({lam[0]:.2f}, {lam[1]:.2f})  " + " ".join(f"{x:6.3f}" for x in w) + f"  {e:7.3f}  {per_state:9.3f}")
+    print("share          " + " ".join(f"{x:6.3f}" for x in usage["weights"].mean(0)))
+    return usage
 
 
 if __name__ == "__main__":

@@ -170,6 +170,27 @@ def expert_training_shares(scale: float, concentration: float, points: int = 200
     return routing_weights(lam, positions, scale=scale).mean(0).numpy()
 
 
+def routing_usage(root: str, task: str, name: str, seed: int) -> dict | None:
+    """tools/expert_usage.py's summary of a finished cell's final policy (cached in the cell as expert_usage.json):
+    mean over the preferences of the entropy of the mean routing weights and of the entropy state by state. None for
+    an unfinished cell."""
+    folder = Cell("main", task, name, seed).folder(root)
+    cache = os.path.join(folder, "expert_usage.json")
+    if not os.path.isfile(cache):
+        checkpoint = os.path.join(folder, "train", "model_final.pt")
+        if not os.path.isfile(os.path.join(folder, "result.json")) or not os.path.isfile(checkpoint):
+            return None
+        from expert_usage import expert_usage
+
+        usage = expert_usage(checkpoint)
+        summary = {"entropy": float(usage["entropy"].mean()),
+                   "per_state_entropy": float(usage["per_state_entropy"].mean())}
+        with open(cache, "w") as f:
+            json.dump(summary, f, indent=2)
+    with open(cache) as f:
+        return json.load(f)
+
+
 def mean_std(values: list[float]) -> str:
     if not values:
         return "-"
@@ -192,7 +213,7 @@ def claim_d_fronts(results: dict, seeds: list[int]) -> dict[int, float]:
     return hv
 
 
-def markdown_report(results: dict, seeds: list[int], steps: int, total_cells: int) -> str:
+def markdown_report(results: dict, seeds: list[int], steps: int, total_cells: int, root: str) -> str:
     finished = sum(len(runs) for runs in results.values())
     lines = [
         "# MO-Gymnasium study",
@@ -261,6 +282,19 @@ def markdown_report(results: dict, seeds: list[int], steps: int, total_cells: in
             share = expert_training_shares(*ROUTING_VALUES[name])[-1]
             lines.append(f"| {task} | {name} | {mean_std([r['hypervolume'] for r in runs])} | {mean_std(first)} | "
                          f"{mean_std(last)} | {share:.3f} | {len(runs)} |")
+    lines += ["", "## What the learned gate does", "",
+              "`tools/expert_usage.py` on each seed's final policy: routing weights over 8 envs x 200 steps of its own "
+              "rollout at each of 11 preferences. Entropy (nats; 1.609 = even over 5 experts) of the mean weights at a "
+              "preference, and state by state, averaged over the preferences; experts per action: exp(entropy per state), "
+              "the effective number of experts each action is drawn from (5 = even).", "",
+              "| task | actor | entropy of mean weights | entropy per state | experts per action | n |",
+              "|---|---|---|---|---|---|"]
+    for task in ROUTING_TASKS + ["mo-walker2d-v5"]:
+        for name in ["pci", "gated"]:
+            usage = [u for u in (routing_usage(root, task, name, seed) for seed in seeds) if u is not None]
+            lines.append(f"| {task} | {name} | {mean_std([u['entropy'] for u in usage])} | "
+                         f"{mean_std([u['per_state_entropy'] for u in usage])} | "
+                         f"{mean_std([float(np.exp(u['per_state_entropy'])) for u in usage])} | {len(usage)} |")
     lines += ["", "Figures: `mo_study_fronts.png` (every seed's front, per task and variant), "
               "`mo_study_hv.png` (hypervolume against env steps, mean over seeds), `mo_study_claim_d.png` (claim (d))."]
     return "\n".join(lines) + "\n"
@@ -368,7 +402,7 @@ def main(argv: list[str] | None = None) -> None:
     for folder in [args.out] + ([args.docs] if args.docs else []):
         os.makedirs(folder, exist_ok=True)
         with open(os.path.join(folder, "mo_study.md"), "w") as f:
-            f.write(markdown_report(results, args.seeds, args.steps, len(cells)))
+            f.write(markdown_report(results, args.seeds, args.steps, len(cells), args.out))
         plot_fronts(results, os.path.join(folder, "mo_study_fronts.png"))
         plot_hypervolume(results, os.path.join(folder, "mo_study_hv.png"))
         plot_claim_d(results, args.seeds, os.path.join(folder, "mo_study_claim_d.png"))
