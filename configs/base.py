@@ -9,6 +9,8 @@ from typing import Any
 
 from rsl_rl.utils import resolve_callable
 
+from pchc_rsl.preference import DEFAULT_ROUTING_SCALE
+
 ACTOR_CLASSES = {
     "pci": "pchc_rsl.modules:PCIActor",
     "gated": "pchc_rsl.modules:GatedMoEActor",
@@ -112,6 +114,7 @@ def default_actor() -> ModelConfig:
     return ModelConfig(
         class_name=ACTOR_CLASSES["pci"],
         distribution_cfg={"class_name": "rsl_rl.modules:GaussianDistribution", "init_std": 1.0, "std_type": "log"},
+        kwargs={"routing_scale": DEFAULT_ROUTING_SCALE},  # named, so that checkpoints record it
     )
 
 

@@ -15,7 +15,7 @@ def g1_task_config(name: str, env_class: str, env, experiment_name: str) -> Task
     """A TaskConfig for a G1 env config: PCI actor over its history frames, AMP over its actuated joints."""
     actor = default_actor()
     actor.hidden_dims = [128, 64]  # per expert
-    actor.kwargs = {"history_length": env.history_length}
+    actor.kwargs |= {"history_length": env.history_length}
     critic = default_critic()
     critic.hidden_dims = [256, 128]
     return TaskConfig(

@@ -18,7 +18,7 @@ def _mo_gym_task(name: str, env: MOGymEnvConfig) -> TaskConfig:
     actor = default_actor()
     actor.hidden_dims = [64, 64]
     actor.distribution_cfg["init_std"] = 0.6
-    actor.kwargs = {"history_length": env.history_length}
+    actor.kwargs |= {"history_length": env.history_length}
     critic = default_critic()
     critic.hidden_dims = [128, 128]
     num_envs, steps = 16, 128

@@ -10,7 +10,7 @@ def toy_task() -> TaskConfig:
     actor = default_actor()
     actor.hidden_dims = [64, 64]
     actor.distribution_cfg["init_std"] = 0.3
-    actor.kwargs = {"history_length": 5, "encoder_hidden_dims": [32], "history_latent_dim": 8}
+    actor.kwargs |= {"history_length": 5, "encoder_hidden_dims": [32], "history_latent_dim": 8}
     critic = default_critic()
     critic.hidden_dims = [64, 64]
     env = ToyEnvConfig()

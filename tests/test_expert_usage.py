@@ -6,6 +6,7 @@ from scipy.stats import beta
 from tool_loader import load_tool
 
 from pchc_rsl.cli import train as train_cli
+from pchc_rsl.preference import DEFAULT_ROUTING_SCALE
 
 expert_usage = load_tool("expert_usage")
 
@@ -16,10 +17,11 @@ def toy_run(tmp_path, *extra):
 
 
 def test_pci_weights_are_the_normalised_beta_density_at_the_expert_positions(tmp_path, capsys):
-    weights = expert_usage.main([toy_run(tmp_path), "--preferences", "3", "--steps", "3", "--num-envs", "2"])
+    weights = expert_usage.main([toy_run(tmp_path), "--preferences", "3", "--steps", "3", "--num-envs", "2"])["weights"]
     positions = np.clip([0.0, 0.25, 0.5, 0.75, 1.0], 0.01, 0.99)  # the routing rule's clamp, eps = 0.01
     for row, lam_1 in zip(weights, [1.0, 0.5, 0.0]):
-        density = beta.pdf(positions, 1 + 10 * lam_1, 1 + 10 * (1 - lam_1))  # alpha0 = beta0 = 1, s = 10
+        s = DEFAULT_ROUTING_SCALE  # alpha0 = beta0 = 1
+        density = beta.pdf(positions, 1 + s * lam_1, 1 + s * (1 - lam_1))
         np.testing.assert_allclose(row, density / density.sum(), atol=1e-5)
     assert "share" in capsys.readouterr().out
 

@@ -333,3 +333,17 @@ def test_threads_are_set_for_torch_and_the_physics_and_printed(tmp_path, capsys)
         assert f"threads: 1 of {available_cores()} cores" in capsys.readouterr().out
     finally:
         torch.set_num_threads(previous)
+
+
+def test_a_pci_checkpoint_that_predates_the_routing_scale_default_keeps_s_10(tmp_path):
+    """Checkpoints saved before the default became 3 do not name routing_scale: they were trained with s = 10."""
+    from pchc_rsl.cli.common import make_runner, restore_config
+    from pchc_rsl.configs import task_config
+
+    fresh = task_config("toy").to_dict()
+    assert make_runner(restore_config(fresh)).alg.actor.mlp.scale == 3.0
+    old = json.loads(json.dumps(fresh))
+    del old["runner"]["actor"]["kwargs"]["routing_scale"]
+    assert make_runner(restore_config(old)).alg.actor.mlp.scale == 10.0
+    old["runner"]["actor"]["kwargs"]["routing_scale"] = 7.0
+    assert make_runner(restore_config(old)).alg.actor.mlp.scale == 7.0

@@ -14,9 +14,10 @@ import torch
 from rsl_rl.utils import resolve_callable
 
 from pchc_rsl.configs import TaskConfig, task_config
-from pchc_rsl.configs.base import apply_saved
+from pchc_rsl.configs.base import ACTOR_CLASSES, apply_saved
 from pchc_rsl.distributed import world
 from pchc_rsl.files import atomic_write
+from pchc_rsl.preference import LEGACY_ROUTING_SCALE
 from pchc_rsl.runners import PCHCRunner
 
 
@@ -68,6 +69,9 @@ def restore_config(saved: dict) -> TaskConfig:
     for key in ("num_envs", "seed", "device", "fixed_preference"):
         if key in saved:
             setattr(cfg, key, saved[key])
+    actor = cfg.runner.actor
+    if actor.class_name == ACTOR_CLASSES["pci"] and "routing_scale" not in actor.kwargs:
+        actor.kwargs["routing_scale"] = LEGACY_ROUTING_SCALE  # saved before the config named it
     return cfg
 
 

@@ -24,7 +24,7 @@ from rsl_rl.models import MLPModel
 from rsl_rl.modules import MLP, HiddenState
 from rsl_rl.utils import resolve_nn_activation
 
-from pchc_rsl.preference import expert_positions_on_simplex, routing_weights, simplex_lattice
+from pchc_rsl.preference import DEFAULT_ROUTING_SCALE, expert_positions_on_simplex, routing_weights, simplex_lattice
 
 
 class PreferenceMLPModel(MLPModel):
@@ -295,7 +295,7 @@ class PCIActor(_MixtureActor):
         lattice_resolution: int = 2,
         alpha0: float = 1.0,
         beta0: float | None = None,
-        routing_scale: float = 10.0,
+        routing_scale: float = DEFAULT_ROUTING_SCALE,
         **kwargs,
     ) -> None:
         super().__init__(obs, obs_groups, obs_set, output_dim, **kwargs)
