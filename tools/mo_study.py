@@ -43,9 +43,13 @@ ROUTING_TASKS = ["mo-hopper-2obj-v5", "mo-halfcheetah-v5"]
 STUDY_ROUTING_SCALE = ["--routing-scale", "10"]
 """The study ran with s = 10, the default then; its cells name it so that a rerun reproduces them (the default is
 now 3, chosen from the routing rows)."""
-ROUTING_SETTINGS = {"pci-s3": ["--routing-scale", "3"], "pci-s30": ["--routing-scale", "30"],
+ROUTING_SETTINGS = {"pci-s0": ["--routing-scale", "0"], "pci-s3": ["--routing-scale", "3"],
+                    "pci-s30": ["--routing-scale", "30"],
                     "pci-c0.5": ["--preference-concentration", "0.5", *STUDY_ROUTING_SCALE]}
-ROUTING_VALUES = {"pci": (10.0, 1.0), "pci-s3": (3.0, 1.0), "pci-s30": (30.0, 1.0), "pci-c0.5": (10.0, 0.5)}
+"""s = 0 is the even mixture whatever lambda (every expert trains on every sample; lambda still reaches the experts):
+the test of whether PCI loses to the gate because its routing splits the data among the experts."""
+ROUTING_VALUES = {"pci": (10.0, 1.0), "pci-s0": (0.0, 1.0), "pci-s3": (3.0, 1.0), "pci-s30": (30.0, 1.0),
+                  "pci-c0.5": (10.0, 0.5)}
 """(routing scale s, Dirichlet concentration of the training preferences) of each routing row."""
 
 
