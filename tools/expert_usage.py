@@ -4,9 +4,9 @@
 
 Why: an expert trains on the samples in proportion to its routing weight. PCI's routing is fixed by lambda, so
 the preferences partition the data among the experts; the gated ablation learns its gate, and this shows whether
-it partitions them too or shares experts across preferences. Prints, per preference, each expert's mean weight
-the entropy of those mean weights and the mean entropy state by state (nats; log E when even), then each expert's share of all the routing
-weight over the preferences (what it trains on when lambda is sampled evenly).
+it partitions them too or shares experts across preferences. Prints, per preference, each expert's mean weight,
+the entropy of those mean weights and the mean entropy state by state (nats; log E when even), then each expert's
+share of all the routing weight over the preferences (what it trains on when lambda is sampled evenly).
 """
 
 from __future__ import annotations

@@ -285,9 +285,8 @@ def markdown_report(results: dict, seeds: list[int], steps: int, total_cells: in
         "",
         "The study's PCI rows use routing scale s = 10 and Dirichlet concentration 1 (row pci), the defaults when "
         "it ran; from these rows the default routing scale is now s = 3 (row pci-s3). The end-point columns are the "
-        "returns "
-        "at lambda = (1, 0) and (0, 1), where the end experts act. End-expert share: the mean routing weight of "
-        "each end expert (x = 0 and x = 1) over the training preferences, i.e. its share of the training data "
+        "returns at lambda = (1, 0) and (0, 1), where the end experts act. End-expert share: the mean routing weight "
+        "of each end expert (x = 0 and x = 1) over the training preferences, i.e. its share of the training data "
         "(0.2 would be an equal share of five; computed, not measured).",
         "",
         "| task | setting | HV | return at (1, 0) | return at (0, 1) | end-expert share | n |",
@@ -302,10 +301,10 @@ def markdown_report(results: dict, seeds: list[int], steps: int, total_cells: in
             lines.append(f"| {task} | {name} | {mean_std([r['hypervolume'] for r in runs])} | {mean_std(first)} | "
                          f"{mean_std(last)} | {share:.3f} | {len(runs)} |")
     lines += ["", "## What the learned gate does", "",
-              "`tools/expert_usage.py` on each seed's final policy: routing weights over 8 envs x 200 steps of its own "
-              "rollout at each of 11 preferences. Entropy (nats; 1.609 = even over 5 experts) of the mean weights at a "
-              "preference, and state by state, averaged over the preferences; experts per action: exp(entropy per state), "
-              "the effective number of experts each action is drawn from (5 = even).", "",
+              "`tools/expert_usage.py` on each seed's final policy: routing weights over 8 envs x 200 steps of its "
+              "own rollout at each of 11 preferences. Entropy (nats; 1.609 = even over 5 experts) of the mean weights "
+              "at a preference, and state by state, averaged over the preferences; experts per action: exp(entropy "
+              "per state), the effective number of experts each action is drawn from (5 = even).", "",
               "| task | actor | entropy of mean weights | entropy per state | experts per action | n |",
               "|---|---|---|---|---|---|"]
     for task in ROUTING_TASKS + ["mo-walker2d-v5"]:
