@@ -18,6 +18,7 @@ The report (``mo_study.md`` and PNGs) gives each figure as mean and standard dev
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import shutil
@@ -143,7 +144,8 @@ def run_cell(cell: Cell, root: str) -> None:
         with open(os.path.join(folder, "log.txt"), "w") as log:
             code = subprocess.call(command, stdout=log, stderr=subprocess.STDOUT)
     finally:
-        os.remove(folder + ".claim")
+        with contextlib.suppress(FileNotFoundError):  # cleared by another worker that took it for stale
+            os.remove(folder + ".claim")
     status = "done" if code == 0 else f"FAILED (exit {code}, see {folder}/log.txt)"
     print(f"[{time.strftime('%H:%M:%S')}] {cell.task} {cell.name} seed {cell.seed}: {status} in "
           f"{time.time() - start:.0f} s", flush=True)
