@@ -15,14 +15,11 @@ import argparse
 
 import numpy as np
 import torch
+from torch.distributions import Categorical
 
 from pchc_rsl.cli.common import make_runner, restore_config, saved_config
 from pchc_rsl.evaluation import evenly_spaced_preferences
 from pchc_rsl.runners.checkpoint import load_checkpoint
-
-
-def entropy(weights: torch.Tensor) -> torch.Tensor:
-    return -(weights * weights.clamp_min(1e-12).log()).sum(-1)
 
 
 def mean_routing(runner, preference, steps: int) -> tuple[np.ndarray, float]:
@@ -36,7 +33,7 @@ def mean_routing(runner, preference, steps: int) -> tuple[np.ndarray, float]:
     def record(module, args):
         weights = module.routing(args[0])
         seen.append(weights.mean(0))
-        entropies.append(entropy(weights).mean())
+        entropies.append(Categorical(probs=weights).entropy().mean())
 
     hook = head.register_forward_pre_hook(record)
     env, policy = runner.env, runner.get_inference_policy()
@@ -62,7 +59,8 @@ def expert_usage(checkpoint: str, preferences: int = 11, steps: int = 200, num_e
     lams = evenly_spaced_preferences(preferences)
     routed = [mean_routing(runner, lam, steps) for lam in lams]
     weights = np.stack([w for w, _ in routed])
-    return {"preferences": np.array(lams), "weights": weights, "entropy": entropy(torch.as_tensor(weights)).numpy(),
+    return {"preferences": np.array(lams), "weights": weights,
+            "entropy": Categorical(probs=torch.as_tensor(weights)).entropy().numpy(),
             "per_state_entropy": np.array([e for _, e in routed])}
 
 

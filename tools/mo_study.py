@@ -41,17 +41,15 @@ VARIANTS = ["pci", "pci-blind", "gated", "mlp"]
 CLAIM_D_TASK = "mo-halfcheetah-v5"
 CLAIM_D_PREFERENCES = [0.0, 0.25, 0.5, 0.75, 1.0]
 ROUTING_TASKS = ["mo-hopper-2obj-v5", "mo-halfcheetah-v5"]
-STUDY_ROUTING_SCALE = ["--routing-scale", "10"]
-"""The study ran with s = 10, the default then; its cells name it so that a rerun reproduces them (the default is
-now 3, chosen from the routing rows)."""
-ROUTING_SETTINGS = {"pci-s0": ["--routing-scale", "0"], "pci-s3": ["--routing-scale", "3"],
-                    "pci-s30": ["--routing-scale", "30"],
-                    "pci-c0.5": ["--preference-concentration", "0.5", *STUDY_ROUTING_SCALE]}
-"""s = 0 is the even mixture whatever lambda (every expert trains on every sample; lambda still reaches the experts):
-the test of whether PCI loses to the gate because its routing splits the data among the experts."""
-ROUTING_VALUES = {"pci": (10.0, 1.0), "pci-s0": (0.0, 1.0), "pci-s3": (3.0, 1.0), "pci-s30": (30.0, 1.0),
-                  "pci-c0.5": (10.0, 0.5)}
-"""(routing scale s, Dirichlet concentration of the training preferences) of each routing row."""
+STUDY_ROUTING_SCALE = 10.0
+"""The study ran with s = 10, the default then; its PCI cells name it so that a rerun reproduces them (the default
+is now 3, chosen from the routing rows)."""
+ROUTING_SETTINGS = {"pci-s0": (0.0, 1.0), "pci-s3": (3.0, 1.0), "pci-s30": (30.0, 1.0),
+                    "pci-c0.5": (STUDY_ROUTING_SCALE, 0.5)}
+"""Routing row -> (routing scale s, Dirichlet concentration of the training preferences); row "pci" is the main
+grid's (STUDY_ROUTING_SCALE, 1). s = 0 is the even mixture whatever lambda (every expert trains on every sample;
+lambda still reaches the experts): the test of whether PCI loses to the gate because its routing splits the data
+among the experts."""
 
 
 @dataclass
@@ -71,15 +69,17 @@ def study_cells(seeds: list[int], steps: int) -> list[Cell]:
     for seed in seeds:
         for task in TASKS:
             for variant in VARIANTS:
-                scale = STUDY_ROUTING_SCALE if variant.startswith("pci") else []
+                scale = ["--routing-scale", f"{STUDY_ROUTING_SCALE:g}"] if variant.startswith("pci") else []
                 cells.append(Cell("main", task, variant, seed, ["--variant", variant, "--steps", str(steps), *scale]))
         for lam in CLAIM_D_PREFERENCES:
             cells.append(Cell("claim_d", CLAIM_D_TASK, f"fixed{lam:.2f}", seed,
                               ["--variant", "mlp", "--fixed-preference", f"{lam},{1 - lam}",
                                "--steps", str(steps // len(CLAIM_D_PREFERENCES)), "--eval-every", "0"]))
         for task in ROUTING_TASKS:
-            for name, extra in ROUTING_SETTINGS.items():
-                cells.append(Cell("routing", task, name, seed, ["--variant", "pci", "--steps", str(steps), *extra]))
+            for name, (scale, concentration) in ROUTING_SETTINGS.items():
+                cells.append(Cell("routing", task, name, seed, [
+                    "--variant", "pci", "--steps", str(steps), "--routing-scale", f"{scale:g}",
+                    "--preference-concentration", f"{concentration:g}"]))
     return cells
 
 
@@ -172,11 +172,11 @@ def expert_training_shares(scale: float, concentration: float, points: int = 200
     import torch
     from scipy.stats import beta
 
-    from pchc_rsl.preference import routing_weights
+    from pchc_rsl.preference import routing_weights, simplex_lattice
 
     lam_1 = torch.as_tensor(beta.ppf((np.arange(points) + 0.5) / points, concentration, concentration))
     lam = torch.stack([lam_1, 1 - lam_1], dim=-1)
-    positions = torch.tensor([0.0, 0.25, 0.5, 0.75, 1.0], dtype=lam.dtype)
+    positions = simplex_lattice(2, 4).to(lam.dtype)  # PCIActor's five default positions
     return routing_weights(lam, positions, scale=scale).mean(0).numpy()
 
 
@@ -299,7 +299,7 @@ def markdown_report(results: dict, seeds: list[int], steps: int, total_cells: in
             runs = results.get((task, name), [])
             first = [r["rows"][0]["mean_return"][0] for r in runs]
             last = [r["rows"][-1]["mean_return"][1] for r in runs]
-            share = expert_training_shares(*ROUTING_VALUES[name])[-1]
+            share = expert_training_shares(*{"pci": (STUDY_ROUTING_SCALE, 1.0), **ROUTING_SETTINGS}[name])[-1]
             lines.append(f"| {task} | {name} | {mean_std([r['hypervolume'] for r in runs])} | {mean_std(first)} | "
                          f"{mean_std(last)} | {share:.3f} | {len(runs)} |")
     lines += ["", "## What the learned gate does", "",
