@@ -52,7 +52,8 @@ def test_front_summary_by_hand():
 
 @pytest.mark.parametrize("task, columns", [
     ("g1-walk-fast", ["Avg. Stride (m)", "Traj. Deviation (m)"]),
-    ("g1-fall-recovery-fast", ["Avg. Energy Overall (J/s)", "COM displacement (m)", "Success rate (%)"]),
+    ("g1-fall-recovery-fast", ["Avg. Energy Overall (J/s)", "COM displacement (m)", "Success, mild pushes (%)",
+                               "Success, strong pushes (%)"]),
 ])
 def test_eval_cli_writes_the_tables_and_plots(tmp_path, task, columns):
     from pchc_rsl.cli import eval as eval_cli

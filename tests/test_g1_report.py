@@ -1,0 +1,71 @@
+"""tools/g1_report.py: the targets are judged on the figures (hand-made results.json files here)."""
+
+import json
+
+from tool_loader import load_tool
+
+g1_report = load_tool("g1_report")
+
+PREFERENCES = [(1.0, 0.0), (0.75, 0.25), (0.5, 0.5), (0.25, 0.75), (0.0, 1.0)]
+
+
+def write_results(folder, metrics_by_preference, episodes=256, switching=None):
+    rows = [{"preference": list(lam), "episodes": episodes, "metrics": m}
+            for lam, m in zip(PREFERENCES, metrics_by_preference)]
+    folder.mkdir()
+    (folder / "results.json").write_text(json.dumps(
+        {"table": "t", "seed": 0, "switching": switching, "results": [{"name": "run/model_1.pt", "rows": rows}]}))
+    return str(folder)
+
+
+def statuses(path):
+    text = open(path).read()
+    targets = [line for line in text.splitlines() if "| met |" in line or "| **not met** |" in line]
+    return {line.split(" | ")[0].lstrip("| "): "not met" not in line for line in targets}
+
+
+def test_walking_targets(tmp_path):
+    # stride grows from (1, 0) to (0, 1); deviation does not (0.30 then 0.28); falls 6% at (0, 1) is above 5%.
+    metrics = [{"stride_length": s, "push_deviation": d, "fall_rate": f, "fall_rate_ci95": [f - 1, f + 1]}
+               for s, d, f in zip([0.4, 0.5, 0.6, 0.7, 0.8], [0.2, 0.25, 0.30, 0.28, 0.5], [0, 1, 2, 3, 6])]
+    walk = write_results(tmp_path / "walk", metrics, switching={"falls": 0, "settle_time_s": 1.0})
+    path = g1_report.main(["--walk", walk, "--docs", str(tmp_path / "docs")])
+    status = statuses(path)
+    assert status == {"falls <= 5% at every preference, >= 256 episodes each": False,
+                      "stride grows from (1, 0) to (0, 1)": True,
+                      "deviation grows from (1, 0) to (0, 1)": False,
+                      "switching (0, 1) -> (1, 0) mid-episode without a fall": True}
+    text = open(path).read()
+    assert "| (0.00, 1.00) | 0.80 | 0.79 |" in text  # ours beside the paper's Table II at the stride end
+    assert "6.0 [5.0, 7.0]" in text
+
+
+def test_walking_targets_need_enough_episodes(tmp_path):
+    metrics = [{"stride_length": s, "push_deviation": s, "fall_rate": 0.0} for s in [0.4, 0.5, 0.6, 0.7, 0.8]]
+    walk = write_results(tmp_path / "walk", metrics, episodes=128, switching={"falls": 1, "settle_time_s": 1.0})
+    status = statuses(g1_report.main(["--walk", walk, "--docs", str(tmp_path / "docs")]))
+    assert not status["falls <= 5% at every preference, >= 256 episodes each"]
+    assert status["deviation grows from (1, 0) to (0, 1)"]
+    assert not status["switching (0, 1) -> (1, 0) mid-episode without a fall"]
+
+
+def test_fall_recovery_targets(tmp_path):
+    rows = zip([85, 90, 80, 95, 99], [60, 70, 80, 85, 92], [400, 450, 500, 550, 600], [1.8, 1.6, 1.7, 1.0, 0.7])
+    metrics = [{"mild/success": m, "strong/success": s, "energy_overall": e, "mild/com_displacement": c}
+               for m, s, e, c in rows]
+    fall = write_results(tmp_path / "fall", metrics)
+    status = statuses(g1_report.main(["--fall", fall, "--docs", str(tmp_path / "docs")]))
+    assert status == {"success >= 80% at every preference, mild pushes": True,
+                      "success grows from (1, 0) to (0, 1), strong pushes": True,
+                      "success >= 90% at (0, 1), strong pushes": True,
+                      "energy grows from (1, 0) to (0, 1)": True,
+                      "COM displacement shrinks from (1, 0) to (0, 1)": False}  # 1.6 then 1.7
+
+
+def test_undefined_metric_fails_its_target(tmp_path):
+    metrics = [{"mild/success": 90, "strong/success": s, "energy_overall": 1, "mild/com_displacement": 1}
+               for s in [10, 20, None, 40, 95]]
+    fall = write_results(tmp_path / "fall", metrics)
+    status = statuses(g1_report.main(["--fall", fall, "--docs", str(tmp_path / "docs")]))
+    assert not status["success grows from (1, 0) to (0, 1), strong pushes"]
+    assert not status["energy grows from (1, 0) to (0, 1)"]

@@ -1,0 +1,222 @@
+"""docs/results/g1.md: the G1 policies against the paper's Table I and II and against issue 14's targets.
+
+    pchc-eval policies/g1_walk.pt --num-envs 128 --episodes 2 --switch --output EVAL/walk
+    pchc-eval policies/g1_fall_recovery.pt --num-envs 128 --episodes 2 --output EVAL/fall
+    python tools/g1_report.py --walk EVAL/walk --fall EVAL/fall --docs docs/results \
+        --walk-runs RUNS/a+RUNS/a-2 --fall-runs RUNS/b+RUNS/b-2
+
+Each table puts our figure (mean with its 95% interval) beside the paper's at the same preference. The targets are
+checked on the figures, not asserted: the report says which hold and by how much the others miss. Training curves
+(reward, falls / success against env steps and hours) come from the runs' TensorBoard events when given.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import shutil
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+
+PAPER_TABLE_II = {  # preference (disturbance, stride) -> (avg. stride m, trajectory deviation m)
+    (0.0, 1.0): (0.79, 0.85),
+    (0.25, 0.75): (0.72, 0.51),
+    (0.5, 0.5): (0.67, 0.33),
+    (0.75, 0.25): (0.55, 0.29),
+    (1.0, 0.0): (0.42, 0.23),  # printed as (0.10, 0.00), a typo for (1.00, 0.00)
+}
+PAPER_TABLE_I = {  # preference (energy, disturbance) -> (energy overall, COM displacement m, success %)
+    (1.0, 0.0): (463.45, 1.82, 62.24),
+    (0.75, 0.25): (480.58, 1.73, 67.95),
+    (0.5, 0.5): (517.90, 1.62, 75.73),
+    (0.25, 0.75): (583.31, 1.12, 91.95),
+    (0.0, 1.0): (666.24, 0.75, 96.56),
+}
+WALK_FALLS_MAX = 5.0
+WALK_MIN_EPISODES = 256
+FALL_MILD_SUCCESS_MIN = 80.0
+FALL_STRONG_SUCCESS_AT_END_MIN = 90.0
+
+
+def load_results(folder: str) -> dict:
+    with open(os.path.join(folder, "results.json")) as f:
+        return json.load(f)
+
+
+def rows_by_preference(result: dict) -> dict[tuple[float, ...], dict]:
+    return {tuple(round(x, 4) for x in row["preference"]): row for row in result["rows"]}
+
+
+def value(row: dict, key: str) -> float:
+    v = row["metrics"].get(key)
+    return math.nan if v is None else float(v)
+
+
+def cell(row: dict, key: str, digits: int = 2) -> str:
+    """'mean ± half-width' (or 'mean [low, high]' for rates) from a pchc-eval row; 'n/a' where undefined."""
+    v, interval = value(row, key), row["metrics"].get(f"{key}_ci95")
+    if v != v:
+        return "n/a"
+    if not interval or interval[0] is None:
+        return f"{v:.{digits}f}"
+    if key.endswith(("success", "fall_rate")):
+        return f"{v:.1f} [{interval[0]:.1f}, {interval[1]:.1f}]"
+    return f"{v:.{digits}f} ± {(interval[1] - interval[0]) / 2:.{digits}f}"
+
+
+def increasing(values: list[float]) -> bool:
+    """Strictly increasing and all defined: the order a table's column must follow from (1, 0) to (0, 1)."""
+    return all(v == v for v in values) and all(b > a for a, b in zip(values, values[1:]))
+
+
+def verdict(ok: bool) -> str:
+    return "met" if ok else "**not met**"
+
+
+def preference_label(lam) -> str:
+    return "(" + ", ".join(f"{x:.2f}" for x in lam) + ")"
+
+
+def walk_section(results: dict) -> tuple[list[str], list[tuple[str, bool, str]]]:
+    """Table II beside the paper's and the walking targets, for the first checkpoint (the PCHC policy); further
+    checkpoints (fixed-preference baselines) get rows of their own."""
+    lines = ["| Policy | Preference | Avg. stride (m) | paper | Traj. deviation (m) | paper | Falls (%) | Episodes |",
+             "|---|---|---|---|---|---|---|---|"]
+    for result in results["results"]:
+        for lam, row in sorted(rows_by_preference(result).items()):
+            paper = PAPER_TABLE_II.get(lam, (math.nan, math.nan))
+            lines.append(f"| {result['name']} | {preference_label(lam)} | {cell(row, 'stride_length')} | "
+                         f"{paper[0]:.2f} | {cell(row, 'push_deviation')} | {paper[1]:.2f} | "
+                         f"{cell(row, 'fall_rate')} | {row['episodes']} |")
+    main = results["results"][0]
+    rows = [row for _, row in sorted(rows_by_preference(main).items())]  # (0, 1) first
+    rows.reverse()  # (1, 0) -> (0, 1)
+    falls = [value(r, "fall_rate") for r in rows]
+    episodes = min(r["episodes"] for r in rows)
+    strides = [value(r, "stride_length") for r in rows]
+    deviations = [value(r, "push_deviation") for r in rows]
+    targets = [
+        (f"falls <= {WALK_FALLS_MAX:g}% at every preference, >= {WALK_MIN_EPISODES} episodes each",
+         max(falls) <= WALK_FALLS_MAX and episodes >= WALK_MIN_EPISODES,
+         f"falls {', '.join(f'{f:.1f}' for f in falls)}% from (1, 0) to (0, 1); {episodes} episodes per preference"),
+        ("stride grows from (1, 0) to (0, 1)", increasing(strides), ", ".join(f"{s:.3f}" for s in strides) + " m"),
+        ("deviation grows from (1, 0) to (0, 1)", increasing(deviations),
+         ", ".join(f"{d:.3f}" for d in deviations) + " m"),
+    ]
+    switching = results.get("switching")
+    if switching is not None:
+        targets.append(("switching (0, 1) -> (1, 0) mid-episode without a fall", switching["falls"] == 0,
+                        f"{switching['falls']} of the envs fell; settle time {switching['settle_time_s']:.2f} s"))
+    else:
+        targets.append(("switching (0, 1) -> (1, 0) mid-episode without a fall", False, "not measured (no --switch)"))
+    return lines, targets
+
+
+def fall_section(results: dict) -> tuple[list[str], list[tuple[str, bool, str]]]:
+    lines = ["| Policy | Preference | Energy overall (J/s) | paper (J) | Torque overall (Nm) | COM displ., mild (m) "
+             "| paper | Success, mild (%) | Success, strong (%) | paper | Episodes |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for result in results["results"]:
+        for lam, row in sorted(rows_by_preference(result).items(), reverse=True):
+            paper = PAPER_TABLE_I.get(lam, (math.nan,) * 3)
+            lines.append(f"| {result['name']} | {preference_label(lam)} | {cell(row, 'energy_overall', 1)} | "
+                         f"{paper[0]:.1f} | {cell(row, 'torque_overall', 1)} | {cell(row, 'mild/com_displacement')} | "
+                         f"{paper[1]:.2f} | {cell(row, 'mild/success')} | {cell(row, 'strong/success')} | "
+                         f"{paper[2]:.1f} | {row['episodes']} |")
+    main = results["results"][0]
+    rows = [row for _, row in sorted(rows_by_preference(main).items(), reverse=True)]  # (1, 0) -> (0, 1)
+    mild = [value(r, "mild/success") for r in rows]
+    strong = [value(r, "strong/success") for r in rows]
+    energy = [value(r, "energy_overall") for r in rows]
+    com = [value(r, "mild/com_displacement") for r in rows]
+    targets = [
+        (f"success >= {FALL_MILD_SUCCESS_MIN:g}% at every preference, mild pushes",
+         min(mild) >= FALL_MILD_SUCCESS_MIN, ", ".join(f"{s:.1f}" for s in mild) + "% from (1, 0) to (0, 1)"),
+        ("success grows from (1, 0) to (0, 1), strong pushes", increasing(strong),
+         ", ".join(f"{s:.1f}" for s in strong) + "%"),
+        (f"success >= {FALL_STRONG_SUCCESS_AT_END_MIN:g}% at (0, 1), strong pushes",
+         strong[-1] >= FALL_STRONG_SUCCESS_AT_END_MIN, f"{strong[-1]:.1f}%"),
+        ("energy grows from (1, 0) to (0, 1)", increasing(energy), ", ".join(f"{e:.1f}" for e in energy) + " J/s"),
+        ("COM displacement shrinks from (1, 0) to (0, 1)", increasing([-c for c in com]),
+         ", ".join(f"{c:.2f}" for c in com) + " m"),
+    ]
+    return lines, targets
+
+
+def targets_table(targets: list[tuple[str, bool, str]]) -> list[str]:
+    lines = ["| Target | Status | Measured |", "|---|---|---|"]
+    lines += [f"| {name} | {verdict(ok)} | {measured} |" for name, ok, measured in targets]
+    return lines
+
+
+def training_summary(spec: str, tags: list[str], out: str) -> list[str]:
+    """Plot the run's curves into ``out`` and return a line with its env steps and wall-clock hours."""
+    import plot_training
+
+    plot_training.main([spec, "--tags", *tags, "--labels", os.path.basename(out).removesuffix(".png"),
+                        "--out", out])
+    steps, hours, _ = plot_training.run_curves(spec, "Train/mean_reward")
+    if len(steps) == 0:
+        return [f"No training events under {spec}."]
+    return [f"Trained for {int(steps[-1]):,} env steps in {hours[-1]:.1f} wall-clock hours "
+            f"(PPO iterations' collection + learning time)."]
+
+
+def copy_plot(folder: str, name: str, docs: str, new_name: str) -> str | None:
+    source = os.path.join(folder, name)
+    if not os.path.exists(source):
+        return None
+    shutil.copyfile(source, os.path.join(docs, new_name))
+    return new_name
+
+
+def main(argv: list[str] | None = None) -> str:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--walk", help="pchc-eval output folder of the walking policy (first checkpoint: PCHC)")
+    parser.add_argument("--fall", help="pchc-eval output folder of the fall-recovery policy")
+    parser.add_argument("--walk-runs", help="the walking run's folders joined by '+', for the training curves")
+    parser.add_argument("--fall-runs", help="the fall-recovery run's folders joined by '+'")
+    parser.add_argument("--docs", default="docs/results")
+    parser.add_argument("--intro", help="a markdown file with the text that goes before the tables")
+    args = parser.parse_args(argv)
+    if not (args.walk or args.fall):
+        raise SystemExit("g1_report: give --walk and/or --fall (pchc-eval output folders).")
+    os.makedirs(args.docs, exist_ok=True)
+    out = ["# G1: the trained PCHC policies against the paper", ""]
+    if args.intro:
+        with open(args.intro) as f:
+            out += [f.read().rstrip(), ""]
+    sections = [("Walking (Table II)", args.walk, walk_section, args.walk_runs, "g1_walk",
+                 ["Train/mean_reward", "Episode_Termination/fall"]),
+                ("Fall recovery from prone (Table I)", args.fall, fall_section, args.fall_runs, "g1_fall",
+                 ["Train/mean_reward", "Metrics/success", "Curriculum/assist_level", "Curriculum/action_scale"])]
+    for title, folder, section, runs, stem, tags in sections:
+        if not folder:
+            continue
+        results = load_results(folder)
+        table, targets = section(results)
+        out += [f"## {title}", "", f"Evaluated with `pchc-eval` (seed {results['seed']}): no randomisation, no "
+                "observation noise, the paper's pushes. Our figure is the mean with its 95% interval (t for "
+                "measured quantities, Wilson for rates).", "", *table, "", "### Targets (issue 14)", "",
+                *targets_table(targets), ""]
+        for plot, caption in (("pareto.png", "Pareto front"), ("switching.png", "Switching lambda mid-episode"),
+                              ("energy_curve.png", "Energy per step")):
+            name = copy_plot(folder, plot, args.docs, f"{stem}_{plot}")
+            if name:
+                out += [f"![{caption}]({name})", ""]
+        if runs:
+            curves = f"{stem}_training.png"
+            out += ["### Training", "", *training_summary(runs, tags, os.path.join(args.docs, curves)), "",
+                    f"![Training curves]({curves})", ""]
+    path = os.path.join(args.docs, "g1.md")
+    with open(path, "w") as f:
+        f.write("\n".join(out).rstrip() + "\n")
+    print(f"g1_report: wrote {path}")
+    return path
+
+
+if __name__ == "__main__":
+    main()
