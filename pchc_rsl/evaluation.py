@@ -237,8 +237,7 @@ def _fmt(value: float, interval: list[float] | None = None, key: str = "") -> st
 
 def switching_run(env, policy, before, after, switch_step: int) -> dict:
     """One episode at ``before`` switched to ``after`` at ``switch_step``: per-step mean objective rewards [T, m],
-    falls, and the time (s) after the switch until the objective curves settle (their 0.5 s moving average stays
-    within 10% of the range of the final 1 s average)."""
+    falls, and the time (s) after the switch until the objective curves settle (see ``settle_time``)."""
     curve, falls = [], 0
     with torch.inference_mode():
         env.set_preference(before)
@@ -251,19 +250,30 @@ def switching_run(env, policy, before, after, switch_step: int) -> dict:
             curve.append(extras["reward_groups"][:, 1:].mean(0).numpy())
             falls += int(extras["episode_metrics"]["fell"].sum())
     curve = np.array(curve)
-    dt = env.dt
-    window = max(1, int(round(0.5 / dt)))
-    smooth = np.stack([np.convolve(c, np.ones(window) / window, mode="same") for c in curve.T], axis=1)
-    tail = smooth[-int(round(1.0 / dt)):].mean(axis=0)
-    tolerance = 0.1 * (np.ptp(smooth[switch_step:], axis=0) + 1e-9)
-    settled = np.abs(smooth - tail) <= tolerance
-    settle_step = switch_step
-    for t in range(len(smooth) - 1, switch_step - 1, -1):
-        if not settled[t].all():
-            settle_step = t + 1
-            break
-    return {"curve": curve, "falls": falls, "settle_time_s": (settle_step - switch_step) * dt, "dt": dt,
+    return {"curve": curve, "falls": falls, "settle_time_s": settle_time(curve, switch_step, env.dt), "dt": env.dt,
             "switch_step": switch_step}
+
+
+def settle_time(curve: np.ndarray, switch_step: int, dt: float, continuous_share: float = 0.9) -> float:
+    """Seconds after ``switch_step`` until every continuous objective of ``curve`` ([T, m]) has settled: its trailing
+    1 s average stays within 10% of its post-switch range of its final 1 s average. The 1 s average spans a few
+    footsteps, so per-step events (touchdowns) count as continuous; objectives whose 1 s average is zero on more than
+    1 - ``continuous_share`` of the steps after the switch (the response to pushes a few seconds apart) have no level
+    to settle to and are left out. NaN when no objective is continuous."""
+    window = max(1, int(round(1.0 / dt)))
+    if switch_step < window - 1 or len(curve) - switch_step < window:
+        raise ValueError(f"Need 1 s ({window} steps) before and after the switch, got {switch_step} and "
+                         f"{len(curve) - switch_step}.")
+    kernel = np.ones(window) / window
+    average = np.stack([np.convolve(c, kernel, mode="valid") for c in curve.T], axis=1)  # ends at step window-1
+    after = average[switch_step - (window - 1):]
+    continuous = (after != 0).mean(axis=0) >= continuous_share
+    if not continuous.any():
+        return float("nan")
+    after = after[:, continuous]
+    tolerance = 0.1 * np.ptp(after, axis=0)
+    unsettled = np.flatnonzero((np.abs(after - after[-1]) > tolerance).any(axis=1))
+    return float((unsettled[-1] + 1) * dt) if len(unsettled) else 0.0
 
 
 def run_return_episodes(env, policy, preference, episodes: int, progress: str = "") -> tuple[list[dict], np.ndarray]:

@@ -82,3 +82,19 @@ def test_eval_cli_writes_the_tables_and_plots(tmp_path, task, columns):
     if "Energy" in columns[0]:
         assert (out / "energy_curve.png").exists()
         assert all(not math.isnan(r["metrics"]["energy_overall"]) for r in rows)
+
+
+def test_settle_time_of_a_step_change():
+    # 1 before step 100, 2 from it on; trailing 1 s (50-step) average at t >= 100: 1 + (t - 99) / 50. Its range after
+    # the switch is 2 - 1.02 = 0.98, so it has settled when 2 - avg <= 0.098, i.e. from t = 145: 0.9 s after.
+    # A second objective rewarded only at steps 200-209 (a push response) has no level and is left out.
+    from pchc_rsl.evaluation import settle_time
+
+    curve = np.ones((300, 2))
+    curve[100:, 0] = 2.0
+    curve[:, 1] = 0.0
+    curve[200:210, 1] = -1.0
+    assert settle_time(curve, 100, 0.02) == pytest.approx(0.9)
+    assert math.isnan(settle_time(curve[:, 1:], 100, 0.02))
+    with pytest.raises(ValueError, match="1 s"):
+        settle_time(curve, 20, 0.02)

@@ -108,8 +108,10 @@ def walk_section(results: dict) -> tuple[list[str], list[tuple[str, bool, str]]]
     ]
     switching = results.get("switching")
     if switching is not None:
+        settle = switching["settle_time_s"]
+        settle = "n/a" if settle is None else f"{settle:.2f} s"
         targets.append(("switching (0, 1) -> (1, 0) mid-episode without a fall", switching["falls"] == 0,
-                        f"{switching['falls']} of the envs fell; settle time {switching['settle_time_s']:.2f} s"))
+                        f"{switching['falls']} falls over the envs; the objectives settle {settle} after the switch"))
     else:
         targets.append(("switching (0, 1) -> (1, 0) mid-episode without a fall", False, "not measured (no --switch)"))
     return lines, targets

@@ -274,7 +274,9 @@ def plot_switching(switch, path):
     ax.axvline(switch["switch_step"] * switch["dt"], color="k", ls="--", label="lambda (0,1) -> (1,0)")
     ax.set_xlabel("time (s)")
     ax.set_ylabel("objective reward per step (mean over envs)")
-    ax.set_title(f"falls {switch['falls']}, settle time {switch['settle_time_s']:.2f} s", fontsize=9)
+    settle = switch["settle_time_s"]
+    settle = "n/a (no continuous objective)" if settle != settle else f"{settle:.2f} s"
+    ax.set_title(f"falls {switch['falls']}, settle time {settle}", fontsize=9)
     ax.legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
