@@ -69,3 +69,15 @@ def test_undefined_metric_fails_its_target(tmp_path):
     status = statuses(g1_report.main(["--fall", fall, "--docs", str(tmp_path / "docs")]))
     assert not status["success grows from (1, 0) to (0, 1), strong pushes"]
     assert not status["energy grows from (1, 0) to (0, 1)"]
+
+
+def test_hand_written_text_above_the_marker_is_kept(tmp_path):
+    metrics = [{"stride_length": s, "push_deviation": s, "fall_rate": 0.0} for s in [0.4, 0.5, 0.6, 0.7, 0.8]]
+    walk = write_results(tmp_path / "walk", metrics)
+    docs = tmp_path / "docs"
+    path = g1_report.main(["--walk", walk, "--docs", str(docs)])
+    text = open(path).read()
+    open(path, "w").write(text.replace("# G1: the trained PCHC policies against the paper", "# G1\n\nOur notes."))
+    text = open(g1_report.main(["--walk", walk, "--docs", str(docs)])).read()
+    assert text.startswith("# G1\n\nOur notes.\n\n" + g1_report.GENERATED_MARKER)
+    assert text.count("## Walking (Table II)") == 1

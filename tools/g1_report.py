@@ -7,7 +7,8 @@
 
 Each table puts our figure (mean with its 95% interval) beside the paper's at the same preference. The targets are
 checked on the figures, not asserted: the report says which hold and by how much the others miss. Training curves
-(reward, falls / success against env steps and hours) come from the runs' TensorBoard events when given.
+(reward, falls / success against env steps and hours) come from the runs' TensorBoard events when given. The text
+above the marker line of an existing g1.md is kept; everything below it is rewritten.
 """
 
 from __future__ import annotations
@@ -35,10 +36,21 @@ PAPER_TABLE_I = {  # preference (energy, disturbance) -> (energy overall, COM di
     (0.25, 0.75): (583.31, 1.12, 91.95),
     (0.0, 1.0): (666.24, 0.75, 96.56),
 }
+GENERATED_MARKER = "<!-- Below: written by tools/g1_report.py; edit the text above. -->"
 WALK_FALLS_MAX = 5.0
 WALK_MIN_EPISODES = 256
 FALL_MILD_SUCCESS_MIN = 80.0
 FALL_STRONG_SUCCESS_AT_END_MIN = 90.0
+
+
+def kept_text(path: str) -> str:
+    """The hand-written part of an existing report (everything above the marker), or a title for a new one."""
+    if os.path.exists(path):
+        with open(path) as f:
+            text = f.read()
+        if GENERATED_MARKER in text:
+            return text[: text.index(GENERATED_MARKER)].rstrip()
+    return "# G1: the trained PCHC policies against the paper"
 
 
 def load_results(folder: str) -> dict:
@@ -182,15 +194,12 @@ def main(argv: list[str] | None = None) -> str:
     parser.add_argument("--walk-runs", help="the walking run's folders joined by '+', for the training curves")
     parser.add_argument("--fall-runs", help="the fall-recovery run's folders joined by '+'")
     parser.add_argument("--docs", default="docs/results")
-    parser.add_argument("--intro", help="a markdown file with the text that goes before the tables")
     args = parser.parse_args(argv)
     if not (args.walk or args.fall):
         raise SystemExit("g1_report: give --walk and/or --fall (pchc-eval output folders).")
     os.makedirs(args.docs, exist_ok=True)
-    out = ["# G1: the trained PCHC policies against the paper", ""]
-    if args.intro:
-        with open(args.intro) as f:
-            out += [f.read().rstrip(), ""]
+    path = os.path.join(args.docs, "g1.md")
+    out = [kept_text(path), "", GENERATED_MARKER, ""]
     sections = [("Walking (Table II)", args.walk, walk_section, args.walk_runs, "g1_walk",
                  ["Train/mean_reward", "Episode_Termination/fall"]),
                 ("Fall recovery from prone (Table I)", args.fall, fall_section, args.fall_runs, "g1_fall",
@@ -213,7 +222,6 @@ def main(argv: list[str] | None = None) -> str:
             curves = f"{stem}_training.png"
             out += ["### Training", "", *training_summary(runs, tags, os.path.join(args.docs, curves)), "",
                     f"![Training curves]({curves})", ""]
-    path = os.path.join(args.docs, "g1.md")
     with open(path, "w") as f:
         f.write("\n".join(out).rstrip() + "\n")
     print(f"g1_report: wrote {path}")
