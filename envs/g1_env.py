@@ -280,5 +280,8 @@ class G1Env(VecEnv):
         return {"generator": self.generator.get_state(), "rng": self.rng.bit_generator.state}
 
     def load_state_dict(self, state: dict) -> None:
-        self.generator.set_state(state["generator"])
-        self.rng.bit_generator.state = state["rng"]
+        """Continue the saved streams; a released checkpoint has none (the env keeps its own seeded ones)."""
+        if "generator" in state:
+            self.generator.set_state(state["generator"])
+        if "rng" in state:
+            self.rng.bit_generator.state = state["rng"]

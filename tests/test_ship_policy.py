@@ -2,6 +2,7 @@
 
 import os
 
+import pytest
 import torch
 
 from pchc_rsl.cli import eval as eval_cli
@@ -32,3 +33,25 @@ def test_shipped_toy_policy_evaluates_and_resumes(tmp_path):
     train_cli.main(["--resume", pt, "--max-iterations", "1", "--log-dir", str(tmp_path / "more")])
     resumed = torch.load(tmp_path / "more" / "model_2.pt", weights_only=True)
     assert "optimizer_state_dict" in resumed  # a fresh optimizer, saved from then on
+
+
+def test_a_released_fall_recovery_policy_resumes_where_its_curriculum_was(tmp_path):
+    """The curriculum (assist level, eta's step count) is the env's progress, not a random stream: releasing keeps
+    it, so that --resume continues a released policy at the assist and action scale it was trained at."""
+    from test_g1_env import g1_available
+
+    if not g1_available():
+        pytest.skip("G1 model unavailable (set MENAGERIE_ROOT offline)")
+    train_cli.main(["--task", "g1-fall-recovery-fast", "--num-envs", "2", "--max-iterations", "1",
+                    "runner.num_steps_per_env=4", "--log-dir", str(tmp_path / "run")])
+    original = tmp_path / "run" / "model_0.pt"
+    saved = torch.load(original, weights_only=True)
+    saved["training_state"]["env"].update(assist_level=0.35, global_steps=20000)  # as if trained for long
+    torch.save(saved, original)
+    released = release_checkpoint(saved)
+    assert released["training_state"] == {"env": {"assist_level": 0.35, "global_steps": 20000}}
+    pt, _ = load_tool("ship_policy").main([str(original), "--name", "fall", "--out", str(tmp_path / "policies")])
+    train_cli.main(["--resume", pt, "--max-iterations", "1", "--log-dir", str(tmp_path / "more")])
+    env_state = torch.load(tmp_path / "more" / "model_1.pt", weights_only=True)["training_state"]["env"]
+    assert env_state["global_steps"] == 20000 + 4  # one iteration of 4 policy steps per env on top
+    assert env_state["assist_level"] in (pytest.approx(0.35), pytest.approx(0.30))  # at most one step lower

@@ -30,12 +30,19 @@ def load_checkpoint(path: str, map_location: str | None = "cpu") -> dict:
 
 
 def release_checkpoint(saved: dict) -> dict:
-    """A checkpoint for shipping: networks, normalisers, the AMP discriminator, config and iteration, without what
-    only an interrupted run needs (optimizer states, the AMP replay buffer, random streams), so that it stays
-    small. pchc-eval, pchc-play and pchc-export-onnx read it as any checkpoint; --resume continues it with a fresh
-    optimizer."""
+    """A checkpoint for shipping: networks, normalisers, the AMP discriminator, config, iteration and the env's
+    progress (the fall-recovery curriculum: assist level and eta's step count), without what only an interrupted run
+    needs (optimizer states, the AMP replay buffer, random streams), so that it stays small. pchc-eval, pchc-play
+    and pchc-export-onnx read it as any checkpoint; --resume continues it with a fresh optimizer and the curriculum
+    where it was."""
     dropped = {"optimizer_state_dict", "rnd_optimizer_state_dict", "training_state", "infos"}
     released = {key: value for key, value in saved.items() if key not in dropped}
     if "amp_state_dict" in released:
         released["amp_state_dict"] = {"discriminator": released["amp_state_dict"]["discriminator"]}
+    env_state = (saved.get("training_state") or {}).get("env") or {}
+    # The env's progress is its scalars (a curriculum level, a step count); its random streams and per-env
+    # episode buffers are tensors and dicts, which a fresh run starts anew.
+    progress = {key: value for key, value in env_state.items() if isinstance(value, (int, float))}
+    if progress:
+        released["training_state"] = {"env": progress}
     return released

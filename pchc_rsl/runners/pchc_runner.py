@@ -170,13 +170,16 @@ class PCHCRunner(OnPolicyRunner):
 
     def restore_training_state(self, loaded: dict) -> None:
         """Continue the streams and env state saved with the checkpoint (a resumed run; not for evaluation, whose
-        env and seed are its own). Checkpoints without them are accepted: the run then continues from new streams."""
+        env and seed are its own). Checkpoints without them (or, released, with only the env's progress) are
+        accepted: the run then continues from new streams."""
         state = loaded.get("training_state")
         if not state:
             return
-        torch.set_rng_state(state["torch_rng"])
-        name, key, position, has_gauss, cached_gaussian = state["numpy_rng"]
-        np.random.set_state((name, key.numpy().astype(np.uint32), position, has_gauss, cached_gaussian))
+        if "torch_rng" in state:  # a released checkpoint keeps only the env's progress
+            torch.set_rng_state(state["torch_rng"])
+        if "numpy_rng" in state:
+            name, key, position, has_gauss, cached_gaussian = state["numpy_rng"]
+            np.random.set_state((name, key.numpy().astype(np.uint32), position, has_gauss, cached_gaussian))
         if "cuda_rng" in state and torch.cuda.is_available():
             torch.cuda.set_rng_state_all(state["cuda_rng"])
         if "env" in state and hasattr(self.env, "load_state_dict"):
