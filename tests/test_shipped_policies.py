@@ -1,0 +1,52 @@
+"""The released G1 policies in policies/: small, their ONNX files export the same networks, and the walker does what
+docs/results/g1.md reports (it stays up under the mild pushes and strides longer at lambda = (0, 1))."""
+
+import json
+import os
+
+import pytest
+
+from test_g1_env import pytestmark  # noqa: F401  (skip without the G1 model)
+
+POLICIES = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "policies")
+MAX_MB = 10.0
+
+
+def shipped(name: str) -> str:
+    path = os.path.join(POLICIES, f"{name}.pt")
+    if not os.path.exists(path):
+        pytest.skip(f"policies/{name}.pt is not shipped")
+    return path
+
+
+@pytest.mark.parametrize("name", ["g1_walk", "g1_fall_recovery"])
+def test_shipped_files_are_small_and_the_onnx_is_the_same_policy(name):
+    from pchc_rsl.cli.common import make_runner, restore_config, saved_config
+    from pchc_rsl.export import check_onnx_against_torch
+    from pchc_rsl.runners import load_checkpoint
+
+    pt = shipped(name)
+    onnx = os.path.join(POLICIES, f"{name}.onnx")
+    for path in (pt, onnx):
+        assert os.path.getsize(path) < MAX_MB * 2**20
+    saved = load_checkpoint(pt)
+    assert "optimizer_state_dict" not in saved
+    cfg = restore_config(saved_config(pt, saved))
+    cfg.num_envs, cfg.device = 1, "cpu"
+    runner = make_runner(cfg)
+    runner.load(pt)
+    module = runner.alg.get_policy().as_onnx(verbose=False).eval()
+    assert check_onnx_against_torch(module, onnx, atol=1e-4) <= 1e-4
+
+
+def test_shipped_walker_stays_up_and_strides_longer_at_the_stride_end(tmp_path):
+    from pchc_rsl.cli import eval as eval_cli
+
+    pt = shipped("g1_walk")
+    eval_cli.main([pt, "--num-envs", "16", "--episodes", "1", "--preference", "1,0", "--preference", "0,1",
+                   "--output", str(tmp_path)])
+    rows = json.loads((tmp_path / "results.json").read_text())["results"][0]["rows"]
+    by_preference = {tuple(row["preference"]): row["metrics"] for row in rows}
+    stability, stride = by_preference[(1.0, 0.0)], by_preference[(0.0, 1.0)]
+    assert stability["fall_rate"] <= 12.5 and stride["fall_rate"] <= 12.5  # at most 2 of 16 episodes
+    assert stride["stride_length"] > stability["stride_length"] + 0.03
