@@ -259,11 +259,10 @@ def settle_time(curve: np.ndarray, switch_step: int, dt: float, continuous_share
     1 s average stays within 10% of its post-switch range of its final 1 s average. The 1 s average spans a few
     footsteps, so per-step events (touchdowns) count as continuous; objectives whose 1 s average is zero on more than
     1 - ``continuous_share`` of the steps after the switch (the response to pushes a few seconds apart) have no level
-    to settle to and are left out. NaN when no objective is continuous."""
+    to settle to and are left out. NaN when no objective is continuous or the episode is too short."""
     window = max(1, int(round(1.0 / dt)))
     if switch_step < window - 1 or len(curve) - switch_step < window:
-        raise ValueError(f"Need 1 s ({window} steps) before and after the switch, got {switch_step} and "
-                         f"{len(curve) - switch_step}.")
+        return float("nan")  # an episode too short to hold 1 s on both sides of the switch
     kernel = np.ones(window) / window
     average = np.stack([np.convolve(c, kernel, mode="valid") for c in curve.T], axis=1)  # ends at step window-1
     after = average[switch_step - (window - 1):]

@@ -96,5 +96,4 @@ def test_settle_time_of_a_step_change():
     curve[200:210, 1] = -1.0
     assert settle_time(curve, 100, 0.02) == pytest.approx(0.9)
     assert math.isnan(settle_time(curve[:, 1:], 100, 0.02))
-    with pytest.raises(ValueError, match="1 s"):
-        settle_time(curve, 20, 0.02)
+    assert math.isnan(settle_time(curve, 20, 0.02))  # under 1 s before the switch
