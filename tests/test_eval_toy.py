@@ -59,6 +59,22 @@ def test_eval_writes_the_toy_trade_off(toy_checkpoint, tmp_path, capsys):
     assert sorted(os.listdir(out)) == ["pareto.png", "results.json", "table.md"]
 
 
+def test_a_fixed_preference_checkpoint_is_evaluated_at_its_own_preference_only(toy_checkpoint, tmp_path):
+    fixed = tmp_path / "fixed"
+    train_cli.main(["--task", "toy", "--num-envs", "8", "--max-iterations", "2", "--seed", "2",
+                    "--fixed-preference", "0.25,0.75", "--log-dir", str(fixed)])
+    out = tmp_path / "eval"
+    eval_cli.main([str(toy_checkpoint), str(fixed / "model_1.pt"), "--num-envs", "4", "--episodes", "1",
+                   "--preferences", "3", "--output", str(out)])
+    pchc, baseline = json.loads((out / "results.json").read_text())["results"]
+    assert [r["preference"] for r in pchc["rows"]] == [[1.0, 0.0], [0.5, 0.5], [0.0, 1.0]]
+    assert [r["preference"] for r in baseline["rows"]] == [[0.25, 0.75]]
+    by_hand = returns_by_hand(fixed / "model_1.pt", [(0.25, 0.75)], 4, 0)[0]
+    metrics = baseline["rows"][0]["metrics"]
+    assert [metrics["goal_a"], metrics["goal_b"]] == pytest.approx(by_hand, rel=1e-5)
+    assert baseline["front"]["num_points"] == 1
+
+
 @pytest.mark.parametrize("argv, message", [
     (["--num-envs", "0"], "--num-envs: must be a whole number >= 1, got 0"),
     (["--episodes", "0"], "--episodes: must be a whole number >= 1, got 0"),

@@ -81,3 +81,25 @@ def test_hand_written_text_above_the_marker_is_kept(tmp_path):
     text = open(g1_report.main(["--walk", walk, "--docs", str(docs)])).read()
     assert text.startswith("# G1\n\nOur notes.\n\n" + g1_report.GENERATED_MARKER)
     assert text.count("## Walking (Table II)") == 1
+
+
+def test_claim_d_puts_each_fixed_walker_beside_pchc_at_its_preference(tmp_path):
+    pchc = [{"stride_length": s, "push_deviation": d, "fall_rate": 0.0}
+            for s, d in zip([0.40, 0.45, 0.5, 0.55, 0.60], [0.20, 0.22, 0.25, 0.28, 0.30])]
+    rows = [{"preference": list(lam), "episodes": 256, "metrics": m} for lam, m in zip(PREFERENCES, pchc)]
+    fixed_10 = {"stride_length": 0.35, "push_deviation": 0.25, "fall_rate": 2.0}  # shorter and less stable
+    fixed_01 = {"stride_length": 0.70, "push_deviation": 0.30, "fall_rate": 1.0}  # longer, as stable
+    folder = tmp_path / "claim_d"
+    folder.mkdir()
+    (folder / "results.json").write_text(json.dumps({"table": "t", "seed": 0, "switching": None, "results": [
+        {"name": "a/model_9.pt", "checkpoint": "/gone/a.pt", "rows": rows},
+        {"name": "f10/model_9.pt", "checkpoint": "/gone/f10.pt",
+         "rows": [{"preference": [1.0, 0.0], "episodes": 256, "metrics": fixed_10}]},
+        {"name": "f01/model_9.pt", "checkpoint": "/gone/f01.pt",
+         "rows": [{"preference": [0.0, 1.0], "episodes": 256, "metrics": fixed_01}]}]}))
+    text = open(g1_report.main(["--claim-d", str(folder), "--docs", str(tmp_path / "docs")])).read()
+    assert ("- At (1.00, 0.00): stride +0.050 m, deviation -0.050 m, falls -2.0 points (PCHC minus fixed); "
+            "PCHC dominates the fixed policy.") in text
+    assert ("- At (0.00, 1.00): stride -0.100 m, deviation +0.000 m, falls -1.0 points (PCHC minus fixed); "
+            "the fixed policy dominates PCHC.") in text
+    assert "| f10/model_9.pt (fixed) | (1.00, 0.00) | n/a | 0.35 | 0.25 | 2.00 | 256 |" in text

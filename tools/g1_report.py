@@ -3,12 +3,14 @@
     pchc-eval policies/g1_walk.pt --num-envs 128 --episodes 2 --switch --output EVAL/walk
     pchc-eval policies/g1_fall_recovery.pt --num-envs 128 --episodes 2 --output EVAL/fall
     python tools/g1_report.py --walk EVAL/walk --fall EVAL/fall --docs docs/results \
-        --walk-runs RUNS/a+RUNS/a-2 --fall-runs RUNS/b+RUNS/b-2
+        --walk-runs RUNS/a+RUNS/a-2 --fall-runs RUNS/b+RUNS/b-2 [--claim-d EVAL/claim_d]
 
 Each table puts our figure (mean with its 95% interval) beside the paper's at the same preference. The targets are
 checked on the figures, not asserted: the report says which hold and by how much the others miss. Training curves
 (reward, falls / success against env steps and hours) come from the runs' TensorBoard events when given. The text
-above the marker line of an existing g1.md is kept; everything below it is rewritten.
+above the marker line of an existing g1.md is kept; everything below it is rewritten. --claim-d takes a pchc-eval
+folder of a PCHC walker (first checkpoint) and fixed-preference walkers (pchc-train --fixed-preference) and puts
+each fixed one beside PCHC at its preference.
 """
 
 from __future__ import annotations
@@ -160,6 +162,48 @@ def fall_section(results: dict) -> tuple[list[str], list[tuple[str, bool, str]]]
     return lines, targets
 
 
+def env_steps(checkpoint: str) -> int | None:
+    """Env steps behind a checkpoint: (iterations done) x envs x steps per env; None if the file is gone."""
+    if not os.path.exists(checkpoint):
+        return None
+    import torch
+
+    saved = torch.load(checkpoint, map_location="cpu", weights_only=True)
+    return (saved["iter"] + 1) * saved["config"]["num_envs"] * saved["config"]["runner"]["num_steps_per_env"]
+
+
+def dominates(a: tuple[float, float], b: tuple[float, float]) -> bool:
+    """Pareto dominance in walking's 'more is better' coordinates (-deviation, stride)."""
+    return all(x >= y for x, y in zip(a, b)) and any(x > y for x, y in zip(a, b))
+
+
+def claim_d_section(results: dict) -> list[str]:
+    """Claim (d): the PCHC policy (first checkpoint) at each fixed-preference policy's preference, beside it."""
+    pchc, *fixed = results["results"]
+    pchc_rows = rows_by_preference(pchc)
+    lines = ["| Policy | Preference | Env steps | Avg. stride (m) | Traj. deviation (m) | Falls (%) | Episodes |",
+             "|---|---|---|---|---|---|---|"]
+    verdicts = []
+    for result in fixed:
+        (lam, row), = rows_by_preference(result).items()
+        if lam not in pchc_rows:
+            raise SystemExit(f"g1_report: {pchc['name']} was not evaluated at {result['name']}'s preference {lam}.")
+        for name, checkpoint, r in ((pchc["name"] + " (PCHC)", pchc["checkpoint"], pchc_rows[lam]),
+                                    (result["name"] + " (fixed)", result["checkpoint"], row)):
+            steps = env_steps(checkpoint)
+            lines.append(f"| {name} | {preference_label(lam)} | {'n/a' if steps is None else f'{steps:,}'} | "
+                         f"{cell(r, 'stride_length')} | {cell(r, 'push_deviation')} | {cell(r, 'fall_rate')} | "
+                         f"{r['episodes']} |")
+        ours = (-value(pchc_rows[lam], "push_deviation"), value(pchc_rows[lam], "stride_length"))
+        theirs = (-value(row, "push_deviation"), value(row, "stride_length"))
+        relation = ("the fixed policy dominates PCHC" if dominates(theirs, ours) else
+                    "PCHC dominates the fixed policy" if dominates(ours, theirs) else "neither dominates")
+        verdicts.append(f"- At {preference_label(lam)}: stride {ours[1] - theirs[1]:+.3f} m, deviation "
+                        f"{theirs[0] - ours[0]:+.3f} m, falls {value(pchc_rows[lam], 'fall_rate') - value(row, 'fall_rate'):+.1f} "
+                        f"points (PCHC minus fixed); {relation}.")
+    return lines + [""] + verdicts
+
+
 def targets_table(targets: list[tuple[str, bool, str]]) -> list[str]:
     lines = ["| Target | Status | Measured |", "|---|---|---|"]
     lines += [f"| {name} | {verdict(ok)} | {measured} |" for name, ok, measured in targets]
@@ -193,10 +237,12 @@ def main(argv: list[str] | None = None) -> str:
     parser.add_argument("--fall", help="pchc-eval output folder of the fall-recovery policy")
     parser.add_argument("--walk-runs", help="the walking run's folders joined by '+', for the training curves")
     parser.add_argument("--fall-runs", help="the fall-recovery run's folders joined by '+'")
+    parser.add_argument("--claim-d", help="pchc-eval output folder of a PCHC walker (first) and fixed-preference "
+                        "walkers trained for as many env steps")
     parser.add_argument("--docs", default="docs/results")
     args = parser.parse_args(argv)
-    if not (args.walk or args.fall):
-        raise SystemExit("g1_report: give --walk and/or --fall (pchc-eval output folders).")
+    if not (args.walk or args.fall or args.claim_d):
+        raise SystemExit("g1_report: give --walk, --fall and/or --claim-d (pchc-eval output folders).")
     os.makedirs(args.docs, exist_ok=True)
     path = os.path.join(args.docs, "g1.md")
     out = [kept_text(path), "", GENERATED_MARKER, ""]
@@ -222,6 +268,16 @@ def main(argv: list[str] | None = None) -> str:
             curves = f"{stem}_training.png"
             out += ["### Training", "", *training_summary(runs, tags, os.path.join(args.docs, curves)), "",
                     f"![Training curves]({curves})", ""]
+    if args.claim_d:
+        results = load_results(args.claim_d)
+        out += ["## Claim (d): one PCHC walker against fixed-preference walkers, same budget each", "",
+                "The paper (Sec. V, 'Compared with fixed preference'): PCHC performs comparably to policies trained "
+                "at one fixed lambda. Each fixed-preference walker is evaluated at its own preference; the PCHC "
+                f"walker at every preference (seed {results['seed']}, same evaluation as above).", "",
+                *claim_d_section(results), ""]
+        name = copy_plot(args.claim_d, "pareto.png", args.docs, "g1_claim_d_pareto.png")
+        if name:
+            out += [f"![PCHC and fixed-preference walkers]({name})", ""]
     with open(path, "w") as f:
         f.write("\n".join(out).rstrip() + "\n")
     print(f"g1_report: wrote {path}")

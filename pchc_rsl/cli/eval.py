@@ -31,7 +31,8 @@ def build_parser() -> argparse.ArgumentParser:
         prog=PROG,
         description="Evaluate checkpoints at fixed preferences under the task's evaluation preset (G1: no "
         "randomisation, no noise, the paper's pushes; toy: undiscounted returns of each goal); write results.json, "
-        "table.md, pareto.png (and energy_curve.png for fall recovery, switching.png with --switch).",
+        "table.md, pareto.png (and energy_curve.png for fall recovery, switching.png with --switch). A checkpoint "
+        "trained with --fixed-preference is evaluated at that preference only: one point beside the fronts.",
     )
     parser.add_argument("checkpoints", nargs="+")
     parser.add_argument("--preferences", type=arguments.at_least_two, default=5,
@@ -129,6 +130,9 @@ def evaluate_checkpoint(path: str, config: dict, preferences, args):
     task = config["task"]
     evaluation = TASK_EVALUATION[task]
     name = os.path.basename(os.path.dirname(os.path.abspath(path))) + "/" + os.path.basename(path)
+    fixed = config.get("fixed_preference")
+    if fixed is not None:  # other lambdas mean nothing to a policy that only ever saw this one
+        preferences = [tuple(float(x) for x in fixed)]
     metrics = {p: {} for p in preferences}
     counts = {p: 0 for p in preferences}
     curve_prefs = {preferences[0], preferences[len(preferences) // 2], preferences[-1]}
@@ -156,7 +160,7 @@ def evaluate_checkpoint(path: str, config: dict, preferences, args):
                 counts[lam] = len(episodes)
                 if lam in curve_prefs:
                     curves[lam] = curve
-        if preset_index == 0 and args.switch:
+        if preset_index == 0 and args.switch and fixed is None:
             env = runner.env
             switch = switching_run(env, policy, (0.0, 1.0), (1.0, 0.0), env.max_episode_length // 2)
             switch["objectives"] = list(env.cfg.objective_names)
