@@ -198,9 +198,9 @@ def claim_d_section(results: dict) -> list[str]:
         theirs = (-value(row, "push_deviation"), value(row, "stride_length"))
         relation = ("the fixed policy dominates PCHC" if dominates(theirs, ours) else
                     "PCHC dominates the fixed policy" if dominates(ours, theirs) else "neither dominates")
+        falls = value(pchc_rows[lam], "fall_rate") - value(row, "fall_rate")
         verdicts.append(f"- At {preference_label(lam)}: stride {ours[1] - theirs[1]:+.3f} m, deviation "
-                        f"{theirs[0] - ours[0]:+.3f} m, falls {value(pchc_rows[lam], 'fall_rate') - value(row, 'fall_rate'):+.1f} "
-                        f"points (PCHC minus fixed); {relation}.")
+                        f"{theirs[0] - ours[0]:+.3f} m, falls {falls:+.1f} points (PCHC minus fixed); {relation}.")
     return lines + [""] + verdicts
 
 
