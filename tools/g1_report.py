@@ -172,15 +172,18 @@ def env_steps(checkpoint: str) -> int | None:
     return (saved["iter"] + 1) * saved["config"]["num_envs"] * saved["config"]["runner"]["num_steps_per_env"]
 
 
-def dominates(a: tuple[float, float], b: tuple[float, float]) -> bool:
-    """Pareto dominance in walking's 'more is better' coordinates (-deviation, stride)."""
-    return all(x >= y for x, y in zip(a, b)) and any(x > y for x, y in zip(a, b))
+def dominates(a, b) -> bool:
+    """Pareto dominance of two points in an evaluation's 'more is better' front coordinates."""
+    return bool((a >= b).all() and (a > b).any())
 
 
 def claim_d_section(results: dict) -> list[str]:
     """Claim (d): the PCHC policy (first checkpoint) at each fixed-preference policy's preference, beside it."""
+    from pchc_rsl.evaluation import WALK_EVALUATION, front_points
+
     pchc, *fixed = results["results"]
     pchc_rows = rows_by_preference(pchc)
+    pchc_steps = env_steps(pchc["checkpoint"])
     lines = ["| Policy | Preference | Env steps | Avg. stride (m) | Traj. deviation (m) | Falls (%) | Episodes |",
              "|---|---|---|---|---|---|---|"]
     verdicts = []
@@ -188,19 +191,19 @@ def claim_d_section(results: dict) -> list[str]:
         (lam, row), = rows_by_preference(result).items()
         if lam not in pchc_rows:
             raise SystemExit(f"g1_report: {pchc['name']} was not evaluated at {result['name']}'s preference {lam}.")
-        for name, checkpoint, r in ((pchc["name"] + " (PCHC)", pchc["checkpoint"], pchc_rows[lam]),
-                                    (result["name"] + " (fixed)", result["checkpoint"], row)):
-            steps = env_steps(checkpoint)
+        ours_row = pchc_rows[lam]
+        for name, steps, r in ((pchc["name"] + " (PCHC)", pchc_steps, ours_row),
+                               (result["name"] + " (fixed)", env_steps(result["checkpoint"]), row)):
             lines.append(f"| {name} | {preference_label(lam)} | {'n/a' if steps is None else f'{steps:,}'} | "
                          f"{cell(r, 'stride_length')} | {cell(r, 'push_deviation')} | {cell(r, 'fall_rate')} | "
                          f"{r['episodes']} |")
-        ours = (-value(pchc_rows[lam], "push_deviation"), value(pchc_rows[lam], "stride_length"))
-        theirs = (-value(row, "push_deviation"), value(row, "stride_length"))
+        ours, theirs = front_points([ours_row, row], WALK_EVALUATION)
         relation = ("the fixed policy dominates PCHC" if dominates(theirs, ours) else
                     "PCHC dominates the fixed policy" if dominates(ours, theirs) else "neither dominates")
-        falls = value(pchc_rows[lam], "fall_rate") - value(row, "fall_rate")
-        verdicts.append(f"- At {preference_label(lam)}: stride {ours[1] - theirs[1]:+.3f} m, deviation "
-                        f"{theirs[0] - ours[0]:+.3f} m, falls {falls:+.1f} points (PCHC minus fixed); {relation}.")
+        stride, deviation, falls = (value(ours_row, key) - value(row, key)
+                                    for key in ("stride_length", "push_deviation", "fall_rate"))
+        verdicts.append(f"- At {preference_label(lam)}: stride {stride:+.3f} m, deviation {deviation:+.3f} m, "
+                        f"falls {falls:+.1f} points (PCHC minus fixed); {relation}.")
     return lines + [""] + verdicts
 
 
