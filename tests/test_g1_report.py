@@ -103,3 +103,21 @@ def test_claim_d_puts_each_fixed_walker_beside_pchc_at_its_preference(tmp_path):
     assert ("- At (0.00, 1.00): stride -0.100 m, deviation +0.000 m, falls -1.0 points (PCHC minus fixed); "
             "the fixed policy dominates PCHC.") in text
     assert "| f10/model_9.pt (fixed) | (1.00, 0.00) | n/a | 0.35 | 0.25 | 2.00 | 256 |" in text
+
+
+def test_training_line_says_where_the_evaluated_checkpoint_sits_on_longer_runs(tmp_path):
+    import torch
+    from test_plot_training import fake_run
+
+    fake_run(tmp_path / "a", range(0, 10), 360.0)  # 10 iterations of 0.1 h, 4 envs x 10 steps = 40 env steps each
+    fake_run(tmp_path / "b", range(10, 15), 720.0)  # resumed: 5 more of 0.2 h -> 600 env steps, 2.0 h in all
+    checkpoint = tmp_path / "model_11.pt"  # iterations 0-11 done: 480 env steps, 1.0 h + 2 x 0.2 h = 1.4 h
+    torch.save({"iter": 11, "config": {"num_envs": 4, "runner": {"num_steps_per_env": 10}}}, checkpoint)
+    runs = f"{tmp_path / 'a'}+{tmp_path / 'b'}"
+    line, = g1_report.training_summary(runs, ["Train/mean_reward"], str(tmp_path / "c.png"), str(checkpoint))
+    assert line.startswith("Trained for 600 env steps in 2.0 wall-clock hours")
+    assert "taken at 480 env steps, after 1.4 hours" in line
+    last = tmp_path / "model_14.pt"  # the runs' own end: nothing to add
+    torch.save({"iter": 14, "config": {"num_envs": 4, "runner": {"num_steps_per_env": 10}}}, last)
+    assert "taken at" not in g1_report.training_summary(runs, ["Train/mean_reward"], str(tmp_path / "d.png"),
+                                                        str(last))[0]

@@ -213,8 +213,10 @@ def targets_table(targets: list[tuple[str, bool, str]]) -> list[str]:
     return lines
 
 
-def training_summary(spec: str, tags: list[str], out: str) -> list[str]:
-    """Plot the run's curves into ``out`` and return a line with its env steps and wall-clock hours."""
+def training_summary(spec: str, tags: list[str], out: str, checkpoint: str | None = None) -> list[str]:
+    """Plot the run's curves into ``out`` and return a line with its env steps and wall-clock hours, and where on
+    them the evaluated ``checkpoint`` was taken (the runs may have gone on past it)."""
+    import numpy as np
     import plot_training
 
     plot_training.main([spec, "--tags", *tags, "--labels", os.path.basename(out).removesuffix(".png"),
@@ -222,8 +224,14 @@ def training_summary(spec: str, tags: list[str], out: str) -> list[str]:
     steps, hours, _ = plot_training.run_curves(spec, "Train/mean_reward")
     if len(steps) == 0:
         return [f"No training events under {spec}."]
-    return [f"Trained for {int(steps[-1]):,} env steps in {hours[-1]:.1f} wall-clock hours "
-            f"(PPO iterations' collection + learning time)."]
+    line = (f"Trained for {int(steps[-1]):,} env steps in {hours[-1]:.1f} wall-clock hours "
+            f"(PPO iterations' collection + learning time).")
+    taken = env_steps(checkpoint) if checkpoint else None
+    if taken is not None and taken < steps[-1]:
+        at = min(int(np.searchsorted(steps, taken)), len(steps) - 1)
+        line += (f" The evaluated checkpoint was taken at {taken:,} env steps, after {hours[at]:.1f} hours; the "
+                 "curves go on past it.")
+    return [line]
 
 
 def copy_plot(folder: str, name: str, docs: str, new_name: str) -> str | None:
@@ -269,7 +277,8 @@ def main(argv: list[str] | None = None) -> str:
                 out += [f"![{caption}]({name})", ""]
         if runs:
             curves = f"{stem}_training.png"
-            out += ["### Training", "", *training_summary(runs, tags, os.path.join(args.docs, curves)), "",
+            out += ["### Training", "", *training_summary(runs, tags, os.path.join(args.docs, curves),
+                                                       results["results"][0]["checkpoint"]), "",
                     f"![Training curves]({curves})", ""]
     if args.claim_d:
         results = load_results(args.claim_d)

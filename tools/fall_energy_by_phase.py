@@ -1,0 +1,52 @@
+"""Fall recovery's energy split by phase, with the pushes off and with pchc-eval's mild pushes.
+
+    python tools/fall_energy_by_phase.py policies/g1_fall_recovery.pt --num-envs 128
+
+Why: Table I's energy mixes getting up (hundreds of J/s) with standing (tens of J/s) and the push responses in
+it. Turning the pushes off shows whether a preference's standing energy comes from reacting to pushes or from how
+it stands. Same evaluation preset as pchc-eval (no randomisation, no noise, no curriculum), seed 0.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from pchc_rsl.cli.common import make_runner, restore_config, saved_config
+from pchc_rsl.evaluation import TASK_EVALUATION, aggregate, evaluation_preset, evenly_spaced_preferences, run_episodes
+from pchc_rsl.runners import load_checkpoint
+
+
+def main(argv: list[str] | None = None) -> list[dict]:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("checkpoint")
+    parser.add_argument("--num-envs", type=int, default=128, help="episodes per preference and push setting")
+    parser.add_argument("--preferences", type=int, default=5)
+    args = parser.parse_args(argv)
+    config = saved_config(args.checkpoint, load_checkpoint(args.checkpoint))
+    if not config["task"].startswith("g1-fall-recovery"):
+        raise SystemExit(f"fall_energy_by_phase: {args.checkpoint} is for task '{config['task']}', not fall recovery.")
+    evaluation = TASK_EVALUATION[config["task"]]
+    rows = []
+    print("pushes  preference    energy getting up (J/s)  energy standing (J/s)  success (%)")
+    for pushes in ("off", "mild"):
+        cfg = evaluation_preset(restore_config(config), "mild", evaluation)
+        cfg.env.push.enabled = pushes == "mild"
+        cfg.num_envs, cfg.seed, cfg.device, cfg.fixed_preference = args.num_envs, 0, "cpu", None
+        runner = make_runner(cfg)
+        runner.load(args.checkpoint)
+        policy = runner.get_inference_policy()
+        for lam in evenly_spaced_preferences(args.preferences):
+            s = aggregate(run_episodes(runner.env, policy, lam, 1)[0])
+            rows.append({"pushes": pushes, "preference": lam, **s})
+            up, stand = (f"{s[k]:8.1f} ± {_half(s, k):5.1f}" for k in ("energy_recovery", "energy_standing"))
+            print(f"{pushes:6s}  ({lam[0]:.2f}, {lam[1]:.2f})  {up}      {stand}    {s['success']:6.1f}", flush=True)
+    return rows
+
+
+def _half(summary: dict, key: str) -> float:
+    low, high = summary[f"{key}_ci95"]
+    return (high - low) / 2
+
+
+if __name__ == "__main__":
+    main()
