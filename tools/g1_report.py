@@ -278,7 +278,7 @@ def main(argv: list[str] | None = None) -> str:
         if runs:
             curves = f"{stem}_training.png"
             out += ["### Training", "", *training_summary(runs, tags, os.path.join(args.docs, curves),
-                                                       results["results"][0]["checkpoint"]), "",
+                                                       results["results"][0].get("checkpoint")), "",
                     f"![Training curves]({curves})", ""]
     if args.claim_d:
         results = load_results(args.claim_d)
