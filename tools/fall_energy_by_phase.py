@@ -11,8 +11,9 @@ from __future__ import annotations
 
 import argparse
 
-from pchc_rsl.cli.common import make_runner, restore_config, saved_config
-from pchc_rsl.evaluation import TASK_EVALUATION, aggregate, evaluation_preset, evenly_spaced_preferences, run_episodes
+from pchc_rsl.cli.common import make_runner, saved_config
+from pchc_rsl.cli.eval import evaluation_config
+from pchc_rsl.evaluation import aggregate, evenly_spaced_preferences, run_episodes
 from pchc_rsl.runners import load_checkpoint
 
 
@@ -25,13 +26,11 @@ def main(argv: list[str] | None = None) -> list[dict]:
     config = saved_config(args.checkpoint, load_checkpoint(args.checkpoint))
     if not config["task"].startswith("g1-fall-recovery"):
         raise SystemExit(f"fall_energy_by_phase: {args.checkpoint} is for task '{config['task']}', not fall recovery.")
-    evaluation = TASK_EVALUATION[config["task"]]
     rows = []
     print("pushes  preference    energy getting up (J/s)  energy standing (J/s)  success (%)")
     for pushes in ("off", "mild"):
-        cfg = evaluation_preset(restore_config(config), "mild", evaluation)
+        cfg = evaluation_config(config, "mild", args.num_envs, seed=0)
         cfg.env.push.enabled = pushes == "mild"
-        cfg.num_envs, cfg.seed, cfg.device, cfg.fixed_preference = args.num_envs, 0, "cpu", None
         runner = make_runner(cfg)
         runner.load(args.checkpoint)
         policy = runner.get_inference_policy()

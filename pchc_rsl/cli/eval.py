@@ -124,8 +124,20 @@ def check_inputs(args) -> tuple[str, dict, list[tuple[float, ...]]]:
     return task, saved, preferences
 
 
+def evaluation_config(config: dict, preset: str | None, num_envs: int, seed: int):
+    """A checkpoint's saved config as pchc-eval runs it: the task's evaluation preset with this push preset (None:
+    the config as trained), on the CPU, lambda not held."""
+    from pchc_rsl.cli.common import restore_config
+
+    cfg = restore_config(config)
+    if preset is not None:
+        cfg = evaluation_preset(cfg, preset, TASK_EVALUATION[config["task"]])
+    cfg.num_envs, cfg.seed, cfg.device, cfg.fixed_preference = num_envs, seed, "cpu", None
+    return cfg
+
+
 def evaluate_checkpoint(path: str, config: dict, preferences, args):
-    from pchc_rsl.cli.common import make_runner, restore_config
+    from pchc_rsl.cli.common import make_runner
 
     task = config["task"]
     evaluation = TASK_EVALUATION[task]
@@ -139,10 +151,7 @@ def evaluate_checkpoint(path: str, config: dict, preferences, args):
     curves, switch = {}, None
     presets = evaluation.push_presets or [None]
     for preset_index, preset in enumerate(presets):
-        cfg = restore_config(config)
-        if preset is not None:
-            cfg = evaluation_preset(cfg, preset, evaluation)
-        cfg.num_envs, cfg.seed, cfg.device, cfg.fixed_preference = args.num_envs, args.seed, "cpu", None
+        cfg = evaluation_config(config, preset, args.num_envs, args.seed)
         if args.episode_length is not None:
             cfg.env.episode_length_s = args.episode_length
         runner = make_runner(cfg, verbose=args.verbose)
