@@ -49,6 +49,10 @@ class FallRecoveryConfig(G1EnvConfig):
     """Policy steps (per env) over which eta goes linearly from eta_initial to eta_final."""
     curriculum: bool = True
     """False: no assist and eta_final from the start (evaluation)."""
+    terminate_on_fall: bool = False
+    """End the episode when the robot falls after standing (HoST's failure). Then falling ends the energy cost
+    instead of adding a second, costly getting-up, so an energy-preferring policy can trade robustness for energy
+    (the paper's Table I); without it a fall's re-standing makes robustness the energy-optimal choice too."""
 
 
 class G1FallRecoveryEnv(G1Env):
@@ -122,7 +126,10 @@ class G1FallRecoveryEnv(G1Env):
 
     # ---------------------------------------------------------------- metrics
     def _terminated(self) -> torch.Tensor:
-        """Lying down is where this task starts, not a failure: episodes end by time-out only."""
+        """Lying down is where this task starts, not a failure: episodes end by time-out, or (terminate_on_fall)
+        when the robot falls again after standing."""
+        if self.cfg.terminate_on_fall:
+            return self.fell_after_standing.clone()
         return torch.zeros(self.num_envs, dtype=torch.bool, device=self.device)
 
     def step_metrics(self) -> dict[str, torch.Tensor]:

@@ -75,3 +75,13 @@ def test_curriculum_anneals_eta_and_applies_the_assist():
     evaluation.step(torch.zeros(2, 23))
     assert evaluation.action_scale[0].item() == pytest.approx(0.25)
     assert float(evaluation.physics.body_forces.max()) == 0.0
+
+
+@pytest.mark.parametrize("terminate", [False, True])
+def test_a_fall_after_standing_ends_the_episode_only_with_terminate_on_fall(terminate):
+    env = make_env(num_envs=2, terminate_on_fall=terminate)
+    env.reached_standing[0] = True  # env 0 "stood" earlier; both lie at 0.3 m, below the 0.5 m fall height
+    _, _, dones, extras = env.step(torch.zeros(2, 23))
+    assert dones.tolist() == [terminate, False]
+    assert not extras["time_outs"].any()
+    assert env.episode_length_buf[0].item() == (0 if terminate else 1)  # a terminated episode restarts
