@@ -29,5 +29,12 @@ def test_curves_continue_steps_and_clock_across_a_resume(tmp_path):
     load_tool("plot_training").main([f"{tmp_path / 'a'}+{tmp_path / 'b'}", "--tags", "Train/mean_reward", "--out",
                       str(tmp_path / "c.png")])
     assert (tmp_path / "c.png").stat().st_size > 0
+    # a branch resumed from a's iteration 5 while a went on to 9: a@5 keeps a's first 6 iterations only
+    fake_run(tmp_path / "branch", range(6, 8), 720.0)
+    steps, hours, values = load_tool("plot_training").run_curves(f"{tmp_path / 'a'}@5+{tmp_path / 'branch'}",
+                                                                 "Train/mean_reward")
+    assert list(values) == [0, 1, 2, 3, 4, 5, 6, 7]
+    assert list(steps) == [40 * (i + 1) for i in range(8)]
+    np.testing.assert_allclose(hours, [0.1 * (i + 1) for i in range(6)] + [0.6 + 0.2, 0.6 + 0.4])
     with pytest.raises(SystemExit, match="labels"):
         load_tool("plot_training").main([str(tmp_path / "a"), "--labels", "x", "y"])

@@ -5,7 +5,8 @@
 
 The question a change to the training loop must answer is whether it learns faster per hour, not per step: each
 tag gets two panels, value against env steps and value against wall-clock hours. A resumed run is read from all its
-folders in order (give them joined by '+': logs/run-a+logs/run-a-more), its clock and steps continuing. Prints, per
+folders in order (give them joined by '+': logs/run-a+logs/run-a-more), its clock and steps continuing; 'folder@N' keeps that folder's
+iterations up to N (a branch resumed from its model_N.pt, while the folder's own run went on). Prints, per
 run and tag, the last value (mean of the last 5 points), the env steps and the hours it took.
 """
 
@@ -42,13 +43,20 @@ def env_steps_per_iteration(folder: str) -> int:
 
 
 def run_curves(spec: str, tag: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(env steps, hours, values) of a run given as folders joined by '+', continuing steps and clock."""
+    """(env steps, hours, values) of a run given as folders (each optionally 'folder@N') joined by '+', continuing
+    steps and clock."""
     all_steps, all_hours, all_values = [], [], []
     steps_done, hours_done = 0, 0.0
-    for folder in spec.split("+"):
+    for part in spec.split("+"):
+        folder, _, until = part.partition("@")
         iterations, values = read_scalars(folder, tag)
         its, seconds = read_scalars(folder, "Perf/collection_time")
         _, learning = read_scalars(folder, "Perf/learning_time")
+        if until:
+            last = int(until)
+            iterations, values = iterations[iterations <= last], values[iterations <= last]
+            seconds, learning = seconds[its <= last], learning[: len(its)][its <= last]
+            its = its[its <= last]
         if len(iterations) == 0 or len(its) == 0:
             continue
         clock = dict(zip(its, np.cumsum(seconds + learning[: len(seconds)]) / 3600.0))
