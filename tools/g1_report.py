@@ -247,7 +247,8 @@ def main(argv: list[str] | None = None) -> str:
     parser.add_argument("--walk", help="pchc-eval output folder of the walking policy (first checkpoint: PCHC)")
     parser.add_argument("--fall", help="pchc-eval output folder of the fall-recovery policy")
     parser.add_argument("--walk-runs", help="the walking run's folders joined by '+', for the training curves")
-    parser.add_argument("--fall-runs", help="the fall-recovery run's folders joined by '+' (folder@N: its iterations up to N)")
+    parser.add_argument("--fall-runs",
+                        help="the fall-recovery run's folders joined by '+' (folder@N: its iterations up to N)")
     parser.add_argument("--claim-d", help="pchc-eval output folder of a PCHC walker (first) and fixed-preference "
                         "walkers trained for as many env steps")
     parser.add_argument("--docs", default="docs/results")

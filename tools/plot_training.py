@@ -5,9 +5,9 @@
 
 The question a change to the training loop must answer is whether it learns faster per hour, not per step: each
 tag gets two panels, value against env steps and value against wall-clock hours. A resumed run is read from all its
-folders in order (give them joined by '+': logs/run-a+logs/run-a-more), its clock and steps continuing; 'folder@N' keeps that folder's
-iterations up to N (a branch resumed from its model_N.pt, while the folder's own run went on). Prints, per
-run and tag, the last value (mean of the last 5 points), the env steps and the hours it took.
+folders in order (give them joined by '+': logs/run-a+logs/run-a-more), its clock and steps continuing;
+'folder@N' keeps that folder's iterations up to N (a branch resumed from its model_N.pt while the folder's own run
+went on). Prints, per run and tag, the last value (mean of the last 5 points), the env steps and the hours it took.
 """
 
 from __future__ import annotations
