@@ -27,6 +27,7 @@ class Pushes:
         self.direction = torch.zeros(n, 2, device=self.device)
         self.origin = torch.zeros(n, 2, device=self.device)
         self.com_origin = torch.zeros(n, 2, device=self.device)
+        self.origin_height = torch.zeros(n, device=self.device)
         self.ref_vel = torch.zeros(n, 2, device=self.device)
         self.elapsed = torch.zeros(n, device=self.device)
         self.max_deviation = torch.zeros(n, device=self.device)
@@ -69,6 +70,7 @@ class Pushes:
         self.direction[ids] = direction
         self.origin[ids] = robot.base_pos[ids, :2]
         self.com_origin[ids] = robot.com_pos[ids, :2]
+        self.origin_height[ids] = robot.base_pos[ids, 2]
         yaw = yaw_of(robot.base_quat[ids])
         cmd = commands[ids, :2]
         self.ref_vel[ids] = torch.stack(
@@ -87,6 +89,10 @@ class Pushes:
     def deviation(self, robot: RobotState) -> torch.Tensor:
         """[N, 2] base position minus the reference x_last + v_ref t."""
         return robot.base_pos[:, :2] - (self.origin + self.reference_offset())
+
+    def height_change(self, robot: RobotState) -> torch.Tensor:
+        """[N] base height minus its height at the push, m (a fall: about -0.5)."""
+        return robot.base_pos[:, 2] - self.origin_height
 
     def com_deviation(self, robot: RobotState) -> torch.Tensor:
         """[N, 2] whole-body COM minus its reference."""

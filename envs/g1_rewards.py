@@ -72,15 +72,20 @@ def stride(env) -> torch.Tensor:
     return env.feet.stride.sum(-1)
 
 
-def disturbance(env) -> torch.Tensor:
-    """The paper's r_disturb = 1_after-disturb (-||x_base - x_ref|| - |(v_base - v_ref) . d|), horizontal.
+def disturbance(env, vertical: bool = False) -> torch.Tensor:
+    """The paper's r_disturb = 1_after-disturb (-||x_base - x_ref|| - |(v_base - v_ref) . d|).
 
     Both terms are relative to the same reference: x_ref = x_last + v_ref t moves at the commanded velocity v_ref
     (turned into the world frame at the push), so walking on as commanded is not penalised and stopping is not
-    rewarded; with no command v_ref = 0 and this is the paper's equation.
+    rewarded; with no command v_ref = 0 and this is the paper's equation. The position term is horizontal unless
+    ``vertical``: then the base's height change since the push counts too (the paper's 3-D x_base), so a fall
+    costs its drop of about 0.5 m on top of the horizontal drift a recovering step also has.
     """
     pushes = env.pushes
-    return pushes.active * (-pushes.deviation(env.robot).norm(dim=-1) - pushes.relative_velocity_along_push(env.robot))
+    position = pushes.deviation(env.robot)
+    if vertical:
+        position = torch.cat([position, pushes.height_change(env.robot).unsqueeze(-1)], dim=-1)
+    return pushes.active * (-position.norm(dim=-1) - pushes.relative_velocity_along_push(env.robot))
 
 
 def energy(env, k_tau: float, k_p: float) -> torch.Tensor:

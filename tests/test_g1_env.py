@@ -137,6 +137,21 @@ def test_r_disturb_measures_position_and_velocity_against_the_same_moving_refere
     assert reward[1].item() == pytest.approx(-0.5, abs=1e-6)
 
 
+def test_vertical_r_disturb_adds_the_height_change_since_the_push():
+    """A fall (the pelvis 0.5 m lower) with 0.3 m horizontal drift: -sqrt(0.3^2 + 0.5^2) instead of -0.3."""
+    from pchc_rsl.envs import g1_rewards
+
+    env = make_walk_env(num_envs=1)
+    env.commands[:] = 0.0
+    push_now(env)
+    pushes, robot = env.pushes, env.robot
+    robot.base_pos = robot.base_pos.clone()
+    robot.base_lin_vel_w = torch.zeros_like(robot.base_lin_vel_w)
+    robot.base_pos[0] = torch.cat([pushes.origin[0] + torch.tensor([0.3, 0.0]), pushes.origin_height[:1] - 0.5])
+    assert g1_rewards.disturbance(env).item() == pytest.approx(-0.3, abs=1e-6)
+    assert g1_rewards.disturbance(env, vertical=True).item() == pytest.approx(-(0.3**2 + 0.5**2) ** 0.5, abs=1e-6)
+
+
 def test_reset_restores_a_valid_standing_state():
     env = make_walk_env(num_envs=2)
     for _ in range(5):
