@@ -50,3 +50,16 @@ def test_shipped_walker_stays_up_and_strides_longer_at_the_stride_end(tmp_path):
     stability, stride = by_preference[(1.0, 0.0)], by_preference[(0.0, 1.0)]
     assert stability["fall_rate"] <= 12.5 and stride["fall_rate"] <= 12.5  # at most 2 of 16 episodes
     assert stride["stride_length"] > stability["stride_length"] + 0.03
+
+
+def test_push_sweep_finds_no_falls_without_a_push_and_all_falls_under_a_huge_one(capsys):
+    """tools/push_sweep.py on the shipped fall-recovery policy: a 0 m/s push leaves it standing, a 6 m/s one
+    (a sprinter's speed, given in an instant) topples it at both end preferences."""
+    from tool_loader import load_tool
+
+    success = load_tool("push_sweep").main([shipped("g1_fall_recovery"), "--speeds", "0", "6", "--num-envs", "4",
+                                            "--preferences", "2"])
+    for lam in [(1.0, 0.0), (0.0, 1.0)]:
+        assert success[lam][0.0][0] == 100.0
+        assert success[lam][6.0][0] == 0.0
+    assert "| (1.00, 0.00) | 100.0 [" in capsys.readouterr().out
