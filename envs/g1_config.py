@@ -84,6 +84,10 @@ class G1EnvConfig:
     randomization: RandomizationConfig = field(default_factory=RandomizationConfig)
     objective_names: list[str] = field(default_factory=lambda: ["obj_1", "obj_2"])
     rewards: list[RewardTerm] = field(default_factory=list)
+    critic_push_timing: bool = False
+    """Also give the critic the time left in the push window and until the next push. r_disturb's value depends on
+    both; without them its critic cannot predict it, and its advantage (normalised to unit scale) is mostly noise.
+    Changes the critic's input size: checkpoints trained without it do not load with it."""
     preference_concentration: float = 1.0
     preference_resample_prob: float = 0.0
     """Per-step probability of re-sampling lambda mid-episode."""

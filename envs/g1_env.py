@@ -139,19 +139,20 @@ class G1Env(VecEnv):
 
     # ---------------------------------------------------------------- observations
     def privileged_state(self) -> torch.Tensor:
-        """The critic's extra state: base velocity and height, foot contacts, the push and the deviation from it."""
+        """The critic's extra state: base velocity and height, foot contacts, the push and the deviation from it (and
+        with ``critic_push_timing`` the push's timing)."""
         active = self.pushes.active.float().unsqueeze(-1)
-        return torch.cat(
-            [
-                self.robot.base_lin_vel,
-                self.robot.base_pos[:, 2:3],
-                self.feet.contact.float(),
-                active,
-                self.pushes.direction * active,
-                self.pushes.deviation(self.robot) * active,
-            ],
-            dim=-1,
-        )
+        parts = [
+            self.robot.base_lin_vel,
+            self.robot.base_pos[:, 2:3],
+            self.feet.contact.float(),
+            active,
+            self.pushes.direction * active,
+            self.pushes.deviation(self.robot) * active,
+        ]
+        if self.cfg.critic_push_timing:
+            parts.append(self.pushes.timing())
+        return torch.cat(parts, dim=-1)
 
     def get_observations(self) -> TensorDict:
         return self.observations.groups(self, self.privileged_state())

@@ -90,6 +90,13 @@ class Pushes:
         """[N, 2] base position minus the reference x_last + v_ref t."""
         return robot.base_pos[:, :2] - (self.origin + self.reference_offset())
 
+    def timing(self) -> torch.Tensor:
+        """[N, 2] the window's share still to come, and the time to the next push as a share of the longest
+        interval, both in [0, 1]."""
+        window_steps = max(1, int(round(self.cfg.window_s / self.dt)))
+        next_push = self.countdown.float() * self.dt / max(self.cfg.interval_s[1], self.dt)
+        return torch.stack([self.window.float() / window_steps, next_push.clamp(0.0, 1.0)], dim=-1)
+
     def height_change(self, robot: RobotState) -> torch.Tensor:
         """[N] base height minus its height at the push, m (a fall: about -0.5)."""
         return robot.base_pos[:, 2] - self.origin_height

@@ -137,6 +137,19 @@ def test_r_disturb_measures_position_and_velocity_against_the_same_moving_refere
     assert reward[1].item() == pytest.approx(-0.5, abs=1e-6)
 
 
+def test_critic_push_timing_adds_the_window_left_and_the_time_to_the_next_push():
+    from pchc_rsl.envs.g1_config import PushConfig
+
+    plain = make_walk_env(num_envs=1)
+    env = make_walk_env(num_envs=1, critic_push_timing=True, push=PushConfig(interval_s=(2.0, 2.0), window_s=1.0))
+    assert env.get_observations()["critic"].shape[-1] == plain.get_observations()["critic"].shape[-1] + 2
+    push_now(env)
+    env.step(torch.zeros(1, 20))  # one policy step (0.02 s) after the push
+    window_steps, interval_steps = round(1.0 / env.dt), int(2.0 / env.dt)
+    expected = [(window_steps - 1) / window_steps, (interval_steps - 1) * env.dt / 2.0]
+    torch.testing.assert_close(env.get_observations()["critic"][0, -2:], torch.tensor(expected))
+
+
 def test_vertical_r_disturb_adds_the_height_change_since_the_push():
     """A fall (the pelvis 0.5 m lower) with 0.3 m horizontal drift: -sqrt(0.3^2 + 0.5^2) instead of -0.3."""
     from pchc_rsl.envs import g1_rewards
