@@ -1,0 +1,36 @@
+"""tools/objective_returns.py sums each env's first episode's reward groups, whatever the episode lengths."""
+
+import torch
+from tool_loader import load_tool
+
+
+class ScriptedEnv:
+    """Two envs, one objective: env 0's episodes last 3 steps, env 1's 2; step t pays (t, 10 t) to every env."""
+
+    num_envs, num_objectives = 2, 1
+
+    def __init__(self):
+        self.t, self.length = 0, torch.zeros(2, dtype=torch.long)
+
+    def set_preference(self, lam):
+        self.preference = lam
+
+    def reset(self):
+        self.t, self.length[:] = 0, 0
+
+    def get_observations(self):
+        return torch.zeros(2, 1)
+
+    def step(self, actions):
+        self.t += 1
+        self.length += 1
+        dones = self.length == torch.tensor([3, 2])
+        self.length[dones] = 0
+        groups = torch.tensor([[self.t, 10.0 * self.t]] * 2)
+        return self.get_observations(), None, dones, {"reward_groups": groups}
+
+
+def test_first_episode_returns_match_a_hand_sum():
+    returns = load_tool("objective_returns").first_episode_returns(ScriptedEnv(), lambda obs: obs, (1.0, 0.0))
+    # env 0: steps 1-3; env 1: steps 1-2 (its second episode, steps 3-4, is not counted)
+    torch.testing.assert_close(returns, torch.tensor([[6.0, 60.0], [3.0, 30.0]]))
