@@ -11,10 +11,8 @@ from __future__ import annotations
 
 import argparse
 
-from pchc_rsl.cli.common import make_runner, saved_config
-from pchc_rsl.cli.eval import evaluation_config
+from pchc_rsl.cli.eval import evaluation_config, loaded_policy, task_config_of
 from pchc_rsl.evaluation import aggregate, evenly_spaced_preferences, run_episodes
-from pchc_rsl.runners import load_checkpoint
 
 
 def main(argv: list[str] | None = None) -> list[dict]:
@@ -23,17 +21,13 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser.add_argument("--num-envs", type=int, default=128, help="episodes per preference and push setting")
     parser.add_argument("--preferences", type=int, default=5)
     args = parser.parse_args(argv)
-    config = saved_config(args.checkpoint, load_checkpoint(args.checkpoint))
-    if not config["task"].startswith("g1-fall-recovery"):
-        raise SystemExit(f"fall_energy_by_phase: {args.checkpoint} is for task '{config['task']}', not fall recovery.")
+    config = task_config_of(args.checkpoint, "g1-fall-recovery", "fall_energy_by_phase", "fall recovery")
     rows = []
     print("pushes  preference    energy getting up (J/s)  energy standing (J/s)  success (%)")
     for pushes in ("off", "mild"):
         cfg = evaluation_config(config, "mild", args.num_envs, seed=0)
         cfg.env.push.enabled = pushes == "mild"
-        runner = make_runner(cfg)
-        runner.load(args.checkpoint)
-        policy = runner.get_inference_policy()
+        runner, policy = loaded_policy(args.checkpoint, cfg)
         for lam in evenly_spaced_preferences(args.preferences):
             s = aggregate(run_episodes(runner.env, policy, lam, 1)[0])
             rows.append({"pushes": pushes, "preference": lam, **s})

@@ -15,10 +15,8 @@ import argparse
 
 import torch
 
-from pchc_rsl.cli.common import make_runner, saved_config
-from pchc_rsl.cli.eval import evaluation_config
-from pchc_rsl.evaluation import TASK_EVALUATION, aggregate, evenly_spaced_preferences
-from pchc_rsl.runners import load_checkpoint
+from pchc_rsl.cli.eval import evaluation_config, loaded_policy, task_config_of
+from pchc_rsl.evaluation import aggregate, evenly_spaced_preferences
 
 
 def first_episode_returns(env, policy, preference) -> torch.Tensor:
@@ -48,15 +46,10 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--num-envs", type=int, default=64, help="episodes per preference")
     parser.add_argument("--preferences", type=int, default=5)
     args = parser.parse_args(argv)
-    config = saved_config(args.checkpoint, load_checkpoint(args.checkpoint))
-    evaluation = TASK_EVALUATION.get(config["task"])
-    if evaluation is None or not evaluation.push_presets:
-        raise SystemExit(f"objective_returns: {args.checkpoint} is for task '{config['task']}', not a G1 task.")
+    config = task_config_of(args.checkpoint, "g1-", "objective_returns", "a G1 task")
     cfg = evaluation_config(config, "mild" if args.pushes == "off" else args.pushes, args.num_envs, seed=0)
     cfg.env.push.enabled = args.pushes != "off"
-    runner = make_runner(cfg)
-    runner.load(args.checkpoint)
-    policy = runner.get_inference_policy()
+    runner, policy = loaded_policy(args.checkpoint, cfg)
     names = ["task", *cfg.env.objective_names]
     print(f"Undiscounted episode return of each reward group, pushes {args.pushes}, {args.num_envs} episodes per "
           f"preference ({args.checkpoint}); mean ± 95% interval half-width")

@@ -13,10 +13,8 @@ from __future__ import annotations
 
 import argparse
 
-from pchc_rsl.cli.common import make_runner, saved_config
-from pchc_rsl.cli.eval import evaluation_config
+from pchc_rsl.cli.eval import evaluation_config, loaded_policy, task_config_of
 from pchc_rsl.evaluation import aggregate, evenly_spaced_preferences, run_episodes
-from pchc_rsl.runners import load_checkpoint
 
 
 def main(argv: list[str] | None = None) -> dict:
@@ -26,17 +24,13 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--num-envs", type=int, default=64, help="episodes per preference and speed")
     parser.add_argument("--preferences", type=int, default=5)
     args = parser.parse_args(argv)
-    config = saved_config(args.checkpoint, load_checkpoint(args.checkpoint))
-    if not config["task"].startswith("g1-fall-recovery"):
-        raise SystemExit(f"push_sweep: {args.checkpoint} is for task '{config['task']}', not fall recovery.")
+    config = task_config_of(args.checkpoint, "g1-fall-recovery", "push_sweep", "fall recovery")
     preferences = evenly_spaced_preferences(args.preferences)
     success: dict = {lam: {} for lam in preferences}
     for speed in args.speeds:
         cfg = evaluation_config(config, "strong", args.num_envs, seed=0)
         cfg.env.push.velocity = (speed, speed)
-        runner = make_runner(cfg)
-        runner.load(args.checkpoint)
-        policy = runner.get_inference_policy()
+        runner, policy = loaded_policy(args.checkpoint, cfg)
         for lam in preferences:
             summary = aggregate(run_episodes(runner.env, policy, lam, 1)[0])
             success[lam][speed] = (summary["success"], summary["success_ci95"])

@@ -136,9 +136,27 @@ def evaluation_config(config: dict, preset: str | None, num_envs: int, seed: int
     return cfg
 
 
-def evaluate_checkpoint(path: str, config: dict, preferences, args):
+def loaded_policy(path: str, cfg, verbose: bool = False):
+    """(runner, deterministic policy) for ``cfg`` with the checkpoint at ``path`` loaded."""
     from pchc_rsl.cli.common import make_runner
 
+    runner = make_runner(cfg, verbose=verbose)
+    runner.load(path)
+    return runner, runner.get_inference_policy()
+
+
+def task_config_of(path: str, task_prefix: str, tool: str, what: str) -> dict:
+    """A checkpoint's saved config; exits with a one-line error naming ``tool`` if its task is not ``what``."""
+    from pchc_rsl.cli.common import saved_config
+    from pchc_rsl.runners import load_checkpoint
+
+    config = saved_config(path, load_checkpoint(path))
+    if not config["task"].startswith(task_prefix):
+        raise SystemExit(f"{tool}: {path} is for task '{config['task']}', not {what}.")
+    return config
+
+
+def evaluate_checkpoint(path: str, config: dict, preferences, args):
     task = config["task"]
     evaluation = TASK_EVALUATION[task]
     name = os.path.basename(os.path.dirname(os.path.abspath(path))) + "/" + os.path.basename(path)
@@ -154,9 +172,7 @@ def evaluate_checkpoint(path: str, config: dict, preferences, args):
         cfg = evaluation_config(config, preset, args.num_envs, args.seed)
         if args.episode_length is not None:
             cfg.env.episode_length_s = args.episode_length
-        runner = make_runner(cfg, verbose=args.verbose)
-        runner.load(path)
-        policy = runner.get_inference_policy()
+        runner, policy = loaded_policy(path, cfg, verbose=args.verbose)
         run = run_return_episodes if evaluation.episode_returns else run_episodes
         for lam in preferences:
             label = f"{name} {preset or ''} {lam}".replace("  ", " ")
