@@ -42,7 +42,7 @@ class FallRecoveryConfig(G1EnvConfig):
     """Upward force (N) on the torso at curriculum level 1 (the robot weighs about 330 N)."""
     assist_level_step: float = 0.05
     assist_success_threshold: float = 0.7
-    """Lower the assist by one step when this share of the episodes that just ended succeeded."""
+    """Lower the assist by one step when this share of the last num_envs ended episodes succeeded."""
     eta_initial: float = 1.0
     eta_final: float = 0.25
     eta_anneal_steps: int = 30000
@@ -63,6 +63,7 @@ class G1FallRecoveryEnv(G1Env):
     def __init__(self, cfg: FallRecoveryConfig, num_envs: int, device: str = "cpu", seed: int = 0) -> None:
         self.assist_level = 1.0 if cfg.curriculum else 0.0
         self.global_steps = 0
+        self._ended_episodes, self._succeeded_episodes = 0, 0
         where = physics_device(cfg.physics, device)  # the reset inside G1Env.__init__ uses these
         self.reached_standing = torch.zeros(num_envs, dtype=torch.bool, device=where)
         self.fell_after_standing = torch.zeros(num_envs, dtype=torch.bool, device=where)
@@ -90,12 +91,20 @@ class G1FallRecoveryEnv(G1Env):
 
     # ---------------------------------------------------------------- curriculum
     def _update_assist(self, env_ids: torch.Tensor) -> None:
-        """HoST-style: shrink the assist once most of the episodes that just ended stood up."""
+        """HoST-style: shrink the assist once most of the last num_envs ended episodes stood up.
+
+        Judged over num_envs episodes, not over each step's resets: with terminate_on_fall the failures end one by
+        one while the successes end together at the time-out, so a per-step share would be biased towards success.
+        Without termination all episodes end together and the two rules agree."""
         if not self.cfg.curriculum or self.episode_length_buf[env_ids].max() == 0:
             return
-        success = self.succeeded(env_ids).float().mean().item()
-        if success >= self.cfg.assist_success_threshold:
+        self._ended_episodes += len(env_ids)
+        self._succeeded_episodes += int(self.succeeded(env_ids).sum())
+        if self._ended_episodes < self.num_envs:
+            return
+        if self._succeeded_episodes >= self.cfg.assist_success_threshold * self._ended_episodes:
             self.assist_level = max(0.0, self.assist_level - self.cfg.assist_level_step)
+        self._ended_episodes, self._succeeded_episodes = 0, 0
 
     def _update_eta(self) -> None:
         c = self.cfg

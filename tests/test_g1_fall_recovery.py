@@ -77,6 +77,22 @@ def test_curriculum_anneals_eta_and_applies_the_assist():
     assert float(evaluation.physics.body_forces.max()) == 0.0
 
 
+def test_assist_is_judged_over_num_envs_ended_episodes_not_each_steps_resets():
+    """With terminate_on_fall the failures end one by one and the successes together at the time-out: the share
+    must count them all (here 1 of 4 succeeded, below 0.7), not only the last batch (1 of 1)."""
+    env = make_env(num_envs=4)
+    env.episode_length_buf[:] = 5
+    env.reached_standing[:] = True
+    env.fell_after_standing[:] = torch.tensor([True, True, True, False])
+    for failed in range(3):
+        env._update_assist(torch.tensor([failed]))
+    env._update_assist(torch.tensor([3]))
+    assert env.assist_level == 1.0
+    env.fell_after_standing[:] = False
+    env._update_assist(torch.arange(4))  # 4 of 4 succeeded: one step lower
+    assert env.assist_level == pytest.approx(1.0 - env.cfg.assist_level_step)
+
+
 @pytest.mark.parametrize("terminate", [False, True])
 def test_a_fall_after_standing_ends_the_episode_only_with_terminate_on_fall(terminate):
     env = make_env(num_envs=2, terminate_on_fall=terminate)
