@@ -220,19 +220,21 @@ def markdown_table(results: list[dict], evaluation: TaskEvaluation) -> str:
         for row in result["rows"]:
             lam = "(" + ", ".join(f"{x:.2f}" for x in row["preference"]) + ")"
             metrics = row["metrics"]
-            cells = [_fmt(metrics.get(key, math.nan), metrics.get(f"{key}_ci95"), key) for key in evaluation.columns]
+            cells = [format_metric(metrics.get(key, math.nan), metrics.get(f"{key}_ci95"), key) for key in evaluation.columns]
             lines.append("| " + " | ".join([result["name"], lam, *cells, str(row.get("episodes", ""))]) + " |")
     return "\n".join(lines) + "\n"
 
 
-def _fmt(value: float, interval: list[float] | None = None, key: str = "") -> str:
+def format_metric(value: float, interval: list[float] | None = None, key: str = "", digits: int = 2) -> str:
+    """'mean ± half-width', or 'rate [low, high]' for rates (their intervals are not symmetric); 'n/a' where
+    undefined, the bare mean where the interval is (missing, or NaN / None as results.json stores it)."""
     if value != value:
         return "n/a"
-    if not interval or interval[0] != interval[0]:
-        return f"{value:.2f}"
+    if not interval or interval[0] is None or interval[0] != interval[0]:
+        return f"{value:.{digits}f}"
     if key.endswith(("success", "fall_rate")):
         return f"{value:.1f} [{interval[0]:.1f}, {interval[1]:.1f}]"
-    return f"{value:.2f} ± {(interval[1] - interval[0]) / 2:.2f}"
+    return f"{value:.{digits}f} ± {(interval[1] - interval[0]) / 2:.{digits}f}"
 
 
 def switching_run(env, policy, before, after, switch_step: int) -> dict:

@@ -10,7 +10,7 @@ import torch
 from pchc_rsl.cli import eval as eval_cli
 from pchc_rsl.cli import train as train_cli
 from pchc_rsl.cli.common import make_runner, restore_config
-from pchc_rsl.evaluation import TOY_EVALUATION
+from pchc_rsl.evaluation import TOY_EVALUATION, format_metric
 
 
 @pytest.fixture(scope="module")
@@ -126,3 +126,19 @@ def test_undefined_metrics_are_null_and_an_empty_plot_says_why(tmp_path):
     assert eval_cli._empty_front_reason([{**results[0], "rows": [
         {"preference": [1.0, 0.0], "metrics": {"goal_a": -1.0, "goal_b": -2.0}}]}], TOY_EVALUATION) == ""
     assert math.isnan(rows[0]["metrics"]["goal_a"])  # the caller's results are not changed
+
+
+@pytest.mark.parametrize(
+    "value, interval, key, digits, expected",
+    [
+        (0.1234, [0.1, 0.2], "stride_length", 2, "0.12 ± 0.05"),
+        (118.04, [116.0, 120.5], "energy_overall", 1, "118.0 ± 2.2"),
+        (99.2, [97.2, 99.8], "mild/success", 2, "99.2 [97.2, 99.8]"),  # rates: asymmetric interval
+        (0.5, None, "stride_length", 2, "0.50"),
+        (0.5, [None, None], "stride_length", 2, "0.50"),  # results.json stores NaN as null
+        (0.5, [math.nan, math.nan], "stride_length", 2, "0.50"),
+        (math.nan, [0.1, 0.2], "stride_length", 2, "n/a"),
+    ],
+)
+def test_table_cells_show_the_mean_and_the_half_width(value, interval, key, digits, expected):
+    assert format_metric(value, interval, key, digits) == expected

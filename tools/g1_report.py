@@ -22,6 +22,8 @@ import os
 import shutil
 import sys
 
+from pchc_rsl.evaluation import format_metric
+
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 PAPER_TABLE_II = {  # preference (disturbance, stride) -> (avg. stride m, trajectory deviation m)
@@ -71,14 +73,7 @@ def value(row: dict, key: str) -> float:
 
 def cell(row: dict, key: str, digits: int = 2) -> str:
     """'mean ± half-width' (or 'mean [low, high]' for rates) from a pchc-eval row; 'n/a' where undefined."""
-    v, interval = value(row, key), row["metrics"].get(f"{key}_ci95")
-    if v != v:
-        return "n/a"
-    if not interval or interval[0] is None:
-        return f"{v:.{digits}f}"
-    if key.endswith(("success", "fall_rate")):
-        return f"{v:.1f} [{interval[0]:.1f}, {interval[1]:.1f}]"
-    return f"{v:.{digits}f} ± {(interval[1] - interval[0]) / 2:.{digits}f}"
+    return format_metric(value(row, key), row["metrics"].get(f"{key}_ci95"), key, digits)
 
 
 def increasing(values: list[float]) -> bool:
