@@ -220,7 +220,8 @@ def markdown_table(results: list[dict], evaluation: TaskEvaluation) -> str:
         for row in result["rows"]:
             lam = "(" + ", ".join(f"{x:.2f}" for x in row["preference"]) + ")"
             metrics = row["metrics"]
-            cells = [format_metric(metrics.get(key, math.nan), metrics.get(f"{key}_ci95"), key) for key in evaluation.columns]
+            cells = [format_metric(metrics.get(key, math.nan), metrics.get(f"{key}_ci95"), key)
+                     for key in evaluation.columns]
             lines.append("| " + " | ".join([result["name"], lam, *cells, str(row.get("episodes", ""))]) + " |")
     return "\n".join(lines) + "\n"
 
