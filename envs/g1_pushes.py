@@ -48,6 +48,11 @@ class Pushes:
         self.max_com_deviation[env_ids] = 0.0
 
     @property
+    def window_steps(self) -> int:
+        """Length of the window after a push, in policy steps."""
+        return int(round(self.cfg.window_s / self.dt))
+
+    @property
     def active(self) -> torch.Tensor:
         """[N] bool: inside the window after a push (the paper's I_after-disturb)."""
         return self.window > 0
@@ -79,7 +84,7 @@ class Pushes:
         self.elapsed[ids] = 0.0
         self.max_deviation[ids] = 0.0
         self.max_com_deviation[ids] = 0.0
-        self.window[ids] = int(round(self.cfg.window_s / self.dt))
+        self.window[ids] = self.window_steps
         self.countdown[ids] = self._interval(n)
 
     def reference_offset(self) -> torch.Tensor:
@@ -93,9 +98,8 @@ class Pushes:
     def timing(self) -> torch.Tensor:
         """[N, 2] the window's share still to come, and the time to the next push as a share of the longest
         interval, both in [0, 1]."""
-        window_steps = max(1, int(round(self.cfg.window_s / self.dt)))
         next_push = self.countdown.float() * self.dt / max(self.cfg.interval_s[1], self.dt)
-        return torch.stack([self.window.float() / window_steps, next_push.clamp(0.0, 1.0)], dim=-1)
+        return torch.stack([self.window.float() / max(1, self.window_steps), next_push.clamp(0.0, 1.0)], dim=-1)
 
     def height_change(self, robot: RobotState) -> torch.Tensor:
         """[N] base height minus its height at the push, m (a fall: about -0.5)."""

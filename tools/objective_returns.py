@@ -16,7 +16,7 @@ import argparse
 import torch
 
 from pchc_rsl.cli.eval import evaluation_config, loaded_policy, task_config_of
-from pchc_rsl.evaluation import aggregate, evenly_spaced_preferences
+from pchc_rsl.evaluation import aggregate, evenly_spaced_preferences, format_metric
 
 
 def first_episode_returns(env, policy, preference) -> torch.Tensor:
@@ -61,7 +61,7 @@ def main(argv: list[str] | None = None) -> dict:
         returns = first_episode_returns(runner.env, policy, lam)
         summary = aggregate([dict(zip(names, row.tolist())) for row in returns])
         table[lam] = summary
-        cells = (f"{summary[n]:.3f} ± {(summary[n + '_ci95'][1] - summary[n + '_ci95'][0]) / 2:.3f}" for n in names)
+        cells = (format_metric(summary[n], summary[f"{n}_ci95"], n, digits=3) for n in names)
         print(f"| ({lam[0]:.2f}, {lam[1]:.2f}) | " + " | ".join(cells) + " |", flush=True)
     return table
 
