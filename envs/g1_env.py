@@ -211,6 +211,10 @@ class G1Env(VecEnv):
         """[N] bool: envs whose push countdown runs this step (None: all)."""
         return None
 
+    def fell_this_step(self) -> torch.Tensor:
+        """[N] bool: the robot fell at this step (walking: a fall ends the episode, so a termination is one)."""
+        return self._terminated()
+
     def _terminated(self) -> torch.Tensor:
         fallen = self.robot.base_pos[:, 2] < self.cfg.termination_height
         tilted = self.robot.projected_gravity[:, :2].norm(dim=-1) > self.cfg.termination_tilt

@@ -67,6 +67,7 @@ class G1FallRecoveryEnv(G1Env):
         where = physics_device(cfg.physics, device)  # the reset inside G1Env.__init__ uses these
         self.reached_standing = torch.zeros(num_envs, dtype=torch.bool, device=where)
         self.fell_after_standing = torch.zeros(num_envs, dtype=torch.bool, device=where)
+        self._fell_now = torch.zeros(num_envs, dtype=torch.bool, device=where)
         super().__init__(cfg, num_envs, device, seed)
         self.torso_id = self.model.body("torso_link").id
         self._update_eta()
@@ -125,7 +126,12 @@ class G1FallRecoveryEnv(G1Env):
         """HoST's success bookkeeping: stood up (pelvis above 0.7 m), and fell again afterwards (below 0.5 m)."""
         height = self.robot.base_pos[:, 2]
         self.reached_standing |= height > STAND_HEIGHT
-        self.fell_after_standing |= self.reached_standing & (height < FALL_HEIGHT)
+        self._fell_now = self.reached_standing & (height < FALL_HEIGHT) & ~self.fell_after_standing
+        self.fell_after_standing |= self._fell_now
+
+    def fell_this_step(self) -> torch.Tensor:
+        """[N] bool: the first fall after standing happened at this step (with or without terminate_on_fall)."""
+        return self._fell_now
 
     def _push_eligible(self) -> torch.Tensor | None:
         return self.reached_standing if self.cfg.push.only_when_standing else None

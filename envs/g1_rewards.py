@@ -72,7 +72,7 @@ def stride(env) -> torch.Tensor:
     return env.feet.stride.sum(-1)
 
 
-def disturbance(env, vertical: bool = False) -> torch.Tensor:
+def disturbance(env, vertical: bool = False, fall_cost: float = 0.0) -> torch.Tensor:
     """The paper's r_disturb = 1_after-disturb (-||x_base - x_ref|| - |(v_base - v_ref) . d|).
 
     Both terms are relative to the same reference: x_ref = x_last + v_ref t moves at the commanded velocity v_ref
@@ -80,12 +80,20 @@ def disturbance(env, vertical: bool = False) -> torch.Tensor:
     rewarded; with no command v_ref = 0 and this is the paper's equation. The position term is horizontal unless
     ``vertical``: then the base's height change since the push counts too (the paper's 3-D x_base), so a fall
     costs its drop of about 0.5 m on top of the horizontal drift a recovering step also has.
+
+    ``fall_cost``: a fall (``env.fell_this_step()``) also costs this much return, once. Without it a fall is the
+    cheapest answer to a strong push under r_disturb alone: the displacement terms stop when the episode ends or,
+    for a fallen robot that is no longer pushed, stay small, so weighting r_disturb more made strong pushes topple
+    the policy more often, the opposite of the paper's Table I (docs/results/g1.md). Not in the paper's equation.
     """
     pushes = env.pushes
     position = pushes.deviation(env.robot)
     if vertical:
         position = torch.cat([position, pushes.height_change(env.robot).unsqueeze(-1)], dim=-1)
-    return pushes.active * (-position.norm(dim=-1) - pushes.relative_velocity_along_push(env.robot))
+    reward = pushes.active * (-position.norm(dim=-1) - pushes.relative_velocity_along_push(env.robot))
+    if fall_cost:
+        reward = reward - fall_cost / env.dt * env.fell_this_step().float()  # RewardGroups multiplies by dt
+    return reward
 
 
 def energy(env, k_tau: float, k_p: float) -> torch.Tensor:

@@ -101,3 +101,21 @@ def test_a_fall_after_standing_ends_the_episode_only_with_terminate_on_fall(term
     assert dones.tolist() == [terminate, False]
     assert not extras["time_outs"].any()
     assert env.episode_length_buf[0].item() == (0 if terminate else 1)  # a terminated episode restarts
+
+
+def test_fall_cost_charges_r_disturb_once_at_the_first_fall_after_standing():
+    """fall_cost 2.0: env 0 stood earlier and lies below the fall height, so its disturbance group gets -2.0 at the
+    first step (times the term's weight 1) and nothing at the next; env 1 never stood, so lying costs it nothing."""
+    from pchc_rsl.configs.g1_fall_recovery import fall_recovery_rewards
+
+    rewards = fall_recovery_rewards()
+    for term in rewards:
+        if term.group == "disturbance":
+            term.params = {"fall_cost": 2.0}
+    env = make_env(num_envs=2, rewards=rewards)
+    env.reached_standing[0] = True
+    disturbance = env.rewards.index["disturbance"]
+    first = env.step(torch.zeros(2, 23))[3]["reward_groups"][:, disturbance]
+    second = env.step(torch.zeros(2, 23))[3]["reward_groups"][:, disturbance]
+    torch.testing.assert_close(first, torch.tensor([-2.0, 0.0]))
+    torch.testing.assert_close(second, torch.tensor([0.0, 0.0]))
