@@ -201,3 +201,15 @@ def test_two_iteration_training_writes_checkpoint_and_events(tmp_path):
     checkpoint = torch.load(tmp_path / "model_1.pt", weights_only=True)
     assert checkpoint["config"]["task"] == "g1-walk-fast"
     assert math.isclose(checkpoint["config"]["env"]["timestep"], 0.005)
+
+
+def test_walking_fall_cost_charges_a_terminating_fall():
+    """Walking's fall is its termination: a pelvis below termination_height costs fall_cost / dt (x dt = fall_cost)."""
+    from pchc_rsl.envs import g1_rewards
+
+    env = make_walk_env(num_envs=2)
+    robot = env.robot
+    robot.base_pos = robot.base_pos.clone()
+    robot.base_pos[0, 2] = env.cfg.termination_height - 0.1
+    reward = g1_rewards.disturbance(env, fall_cost=2.0) - g1_rewards.disturbance(env)
+    torch.testing.assert_close(reward * env.dt, torch.tensor([-2.0, 0.0]))
