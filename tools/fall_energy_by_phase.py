@@ -12,7 +12,7 @@ from __future__ import annotations
 import argparse
 
 from pchc_rsl.cli.eval import evaluation_config, loaded_policy, task_config_of
-from pchc_rsl.evaluation import aggregate, evenly_spaced_preferences, run_episodes
+from pchc_rsl.evaluation import aggregate, evenly_spaced_preferences, format_metric, run_episodes
 
 
 def main(argv: list[str] | None = None) -> list[dict]:
@@ -31,14 +31,10 @@ def main(argv: list[str] | None = None) -> list[dict]:
         for lam in evenly_spaced_preferences(args.preferences):
             s = aggregate(run_episodes(runner.env, policy, lam, 1)[0])
             rows.append({"pushes": pushes, "preference": lam, **s})
-            up, stand = (f"{s[k]:8.1f} ± {_half(s, k):5.1f}" for k in ("energy_recovery", "energy_standing"))
+            up, stand = (f"{format_metric(s[k], s[f'{k}_ci95'], k, digits=1):>16s}"
+                         for k in ("energy_recovery", "energy_standing"))
             print(f"{pushes:6s}  ({lam[0]:.2f}, {lam[1]:.2f})  {up}      {stand}    {s['success']:6.1f}", flush=True)
     return rows
-
-
-def _half(summary: dict, key: str) -> float:
-    low, high = summary[f"{key}_ci95"]
-    return (high - low) / 2
 
 
 if __name__ == "__main__":
