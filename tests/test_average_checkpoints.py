@@ -1,0 +1,46 @@
+"""Averaging checkpoints of one run: the parameters are the element-wise mean, the rest is the newest's."""
+
+import pytest
+import torch
+
+from pchc_rsl.cli import eval as eval_cli
+from pchc_rsl.cli import train as train_cli
+from tool_loader import load_tool
+
+
+@pytest.fixture(scope="module")
+def two_checkpoints(tmp_path_factory):
+    root = tmp_path_factory.mktemp("avg")
+    train_cli.main(["--task", "toy", "--max-iterations", "2", "--log-dir", str(root / "a")])
+    train_cli.main(["--resume", str(root / "a" / "model_1.pt"), "--max-iterations", "2", "--log-dir", str(root / "b")])
+    return root, str(root / "a" / "model_1.pt"), str(root / "b" / "model_3.pt")
+
+
+def test_parameters_are_the_mean_and_the_rest_is_the_newest(two_checkpoints):
+    root, old, new = two_checkpoints
+    out = load_tool("average_checkpoints").main([new, old, "--out", str(root / "avg.pt")])  # order does not matter
+    averaged = torch.load(out, weights_only=True)
+    a, b = torch.load(old, weights_only=True), torch.load(new, weights_only=True)
+    for key in ("actor_state_dict", "critic_state_dict"):
+        for name, tensor in a[key].items():
+            if tensor.is_floating_point():
+                assert torch.allclose(averaged[key][name], (tensor + b[key][name]) / 2), name
+    changed = [n for n, t in a["actor_state_dict"].items() if t.is_floating_point()
+               and not torch.equal(t, b["actor_state_dict"][n])]
+    assert changed  # the test means something only if training moved the parameters
+    assert averaged["iter"] == b["iter"] == 3 and "optimizer_state_dict" not in averaged
+    assert averaged["averaged_from"] == [f"{old}@1", f"{new}@3"]
+    eval_cli.main([out, "--num-envs", "4", "--episodes", "1", "--preferences", "2", "--output", str(root / "e")])
+    assert (root / "e" / "table.md").is_file()
+
+
+def test_checkpoints_of_different_networks_are_refused(two_checkpoints):
+    root, old, new = two_checkpoints
+    other = torch.load(old, weights_only=True)
+    name = next(n for n, t in other["actor_state_dict"].items() if t.is_floating_point() and t.dim() == 2)
+    other["actor_state_dict"][name] = torch.zeros(3, 3)
+    torch.save(other, root / "other.pt")
+    with pytest.raises(ValueError, match="not the same network"):
+        load_tool("average_checkpoints").main([str(root / "other.pt"), new, "--out", str(root / "x.pt")])
+    with pytest.raises(ValueError, match="at least two"):
+        load_tool("average_checkpoints").main([new, "--out", str(root / "x.pt")])

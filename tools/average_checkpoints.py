@@ -1,0 +1,72 @@
+"""Average the networks of several checkpoints of one run (uniform weight averaging, as in SWA).
+
+    python tools/average_checkpoints.py RUN/fall-ptv/model_{2450,2500,2550,2600,2650,2700,2750}.pt --out avg.pt
+
+Why: late in a run PPO keeps moving the policy, and consecutive checkpoints 50 iterations apart differ by more than
+a table's intervals at the ends of the preference range (g1.md: energy at (1, 0) of 99.7 J/s at one checkpoint and
+127.5 at another of the same run). The mean of the actor's (and critics') parameters over a stretch of checkpoints
+cancels much of that noise. Only checkpoints of one lineage make sense here: averaging works for nearby points of
+one training trajectory, not for independently trained networks.
+
+Floating-point tensors of the actor and critic (weights and observation normalisers) are averaged; everything else
+(config, iteration, AMP discriminator, value normaliser, curriculum) is the newest checkpoint's. The optimizer state
+is dropped, so ``pchc-train --resume`` starts a fresh one, as for a released policy. The file records what it was
+averaged from under ``averaged_from``.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import torch
+
+from pchc_rsl.files import atomic_write
+from pchc_rsl.runners.checkpoint import load_checkpoint
+
+AVERAGED = ("actor_state_dict", "critic_state_dict")
+
+
+def average_state_dicts(dicts: list[dict], names: list[str]) -> dict:
+    """Mean of each floating-point tensor; other entries (sample counts) from the last. Keys and shapes must match."""
+    first = dicts[0]
+    for state, name in zip(dicts[1:], names[1:]):
+        if state.keys() != first.keys():
+            raise ValueError(f"{name} has different parameters from {names[0]}: not the same network.")
+        for key, tensor in first.items():
+            if state[key].shape != tensor.shape:
+                raise ValueError(f"{name}: {key} has shape {tuple(state[key].shape)}, {names[0]} has "
+                                 f"{tuple(tensor.shape)}: not the same network.")
+    return {key: torch.stack([d[key] for d in dicts]).mean(0) if value.is_floating_point() else dicts[-1][key]
+            for key, value in dicts[-1].items()}
+
+
+def average_checkpoints(paths: list[str]) -> dict:
+    if len(paths) < 2:
+        raise ValueError("Give at least two checkpoints to average.")
+    saved = [load_checkpoint(path) for path in paths]
+    order = sorted(range(len(paths)), key=lambda i: saved[i].get("iter", 0))
+    saved, paths = [saved[i] for i in order], [paths[i] for i in order]
+    tasks = {s.get("config", {}).get("task") for s in saved}
+    if len(tasks) != 1:
+        raise ValueError(f"The checkpoints come from different tasks ({', '.join(sorted(map(str, tasks)))}).")
+    averaged = {key: value for key, value in saved[-1].items() if key != "optimizer_state_dict"}
+    for key in AVERAGED:
+        averaged[key] = average_state_dicts([s[key] for s in saved], paths)
+    averaged["averaged_from"] = [f"{path}@{s.get('iter')}" for path, s in zip(paths, saved)]
+    return averaged
+
+
+def main(argv: list[str] | None = None) -> str:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("checkpoints", nargs="+")
+    parser.add_argument("--out", required=True, help="the averaged checkpoint's path")
+    args = parser.parse_args(argv)
+    averaged = average_checkpoints(args.checkpoints)
+    atomic_write(args.out, lambda tmp: torch.save(averaged, tmp))
+    print(f"average_checkpoints: wrote {args.out}, the mean of {len(args.checkpoints)} checkpoints "
+          f"(iterations {averaged['averaged_from'][0].rsplit('@', 1)[1]} to {averaged['iter']})")
+    return args.out
+
+
+if __name__ == "__main__":
+    main()
