@@ -29,7 +29,7 @@ def test_parameters_are_the_mean_and_the_rest_is_the_newest(two_checkpoints):
                and not torch.equal(t, b["actor_state_dict"][n])]
     assert changed  # the test means something only if training moved the parameters
     assert averaged["iter"] == b["iter"] == 3 and "optimizer_state_dict" not in averaged
-    assert averaged["averaged_from"] == [f"{old}@1", f"{new}@3"]
+    assert averaged["averaged_from"] == ["a/model_1.pt@1", "b/model_3.pt@3"]
     eval_cli.main([out, "--num-envs", "4", "--episodes", "1", "--preferences", "2", "--output", str(root / "e")])
     assert (root / "e" / "table.md").is_file()
 

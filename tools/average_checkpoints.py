@@ -11,12 +11,13 @@ one training trajectory, not for independently trained networks.
 Floating-point tensors of the actor and critic (weights and observation normalisers) are averaged; everything else
 (config, iteration, AMP discriminator, value normaliser, curriculum) is the newest checkpoint's. The optimizer state
 is dropped, so ``pchc-train --resume`` starts a fresh one, as for a released policy. The file records what it was
-averaged from under ``averaged_from``.
+averaged from under ``averaged_from`` (run folder, file and iteration of each).
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 
 import torch
 
@@ -40,6 +41,11 @@ def average_state_dicts(dicts: list[dict], names: list[str]) -> dict:
             for key, value in dicts[-1].items()}
 
 
+def run_and_file(path: str) -> str:
+    """'RUN/model_N.pt' without the folders above the run's, which mean nothing where the file is shipped to."""
+    return os.path.join(os.path.basename(os.path.dirname(os.path.abspath(path))), os.path.basename(path))
+
+
 def average_checkpoints(paths: list[str]) -> dict:
     if len(paths) < 2:
         raise ValueError("Give at least two checkpoints to average.")
@@ -52,7 +58,7 @@ def average_checkpoints(paths: list[str]) -> dict:
     averaged = {key: value for key, value in saved[-1].items() if key != "optimizer_state_dict"}
     for key in AVERAGED:
         averaged[key] = average_state_dicts([s[key] for s in saved], paths)
-    averaged["averaged_from"] = [f"{path}@{s.get('iter')}" for path, s in zip(paths, saved)]
+    averaged["averaged_from"] = [f"{run_and_file(path)}@{s.get('iter')}" for path, s in zip(paths, saved)]
     return averaged
 
 
