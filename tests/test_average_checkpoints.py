@@ -1,4 +1,5 @@
-"""Averaging checkpoints of one run: the parameters are the element-wise mean, the rest is the newest's."""
+"""Averaging checkpoints of one run: the parameters are the element-wise mean, the rest is the newest's; the result
+evaluates and resumes like any checkpoint."""
 
 import pytest
 import torch
@@ -32,6 +33,8 @@ def test_parameters_are_the_mean_and_the_rest_is_the_newest(two_checkpoints):
     assert averaged["averaged_from"] == ["a/model_1.pt@1", "b/model_3.pt@3"]
     eval_cli.main([out, "--num-envs", "4", "--episodes", "1", "--preferences", "2", "--output", str(root / "e")])
     assert (root / "e" / "table.md").is_file()
+    train_cli.main(["--resume", out, "--max-iterations", "1", "--log-dir", str(root / "more")])
+    assert torch.load(root / "more" / "model_4.pt", weights_only=True)["iter"] == 4
 
 
 def test_checkpoints_of_different_networks_are_refused(two_checkpoints):
