@@ -17,7 +17,8 @@ import numpy as np
 import torch
 from torch.distributions import Categorical
 
-from pchc_rsl.cli.common import make_runner, restore_config, saved_config
+from pchc_rsl.cli.common import restore_config, saved_config
+from pchc_rsl.cli.eval import loaded_policy
 from pchc_rsl.evaluation import evenly_spaced_preferences
 from pchc_rsl.runners.checkpoint import load_checkpoint
 
@@ -54,8 +55,7 @@ def expert_usage(checkpoint: str, preferences: int = 11, steps: int = 200, num_e
     if len(cfg.env.objective_names) != 2:
         raise SystemExit("expert_usage walks the preferences from (1, 0) to (0, 1): two objectives only.")
     cfg.num_envs, cfg.seed, cfg.device, cfg.fixed_preference = num_envs, seed, "cpu", None
-    runner = make_runner(cfg)
-    runner.load(checkpoint)
+    runner, _ = loaded_policy(checkpoint, cfg)
     lams = evenly_spaced_preferences(preferences)
     routed = [mean_routing(runner, lam, steps) for lam in lams]
     weights = np.stack([w for w, _ in routed])

@@ -9,8 +9,6 @@ The environment is the one pchc-eval builds for the checkpoint (no randomisation
 from __future__ import annotations
 
 import argparse
-import contextlib
-import io
 import math
 import os
 import sys
@@ -109,7 +107,8 @@ def load_policy(path: str, num_envs: int, seed: int, episode_length_s: float | N
     """The checkpoint's env under pchc-eval's evaluation preset (its first push preset), and its inference policy.
 
     Returns (task, env, policy); refuses tasks without a scene to show in one line."""
-    from pchc_rsl.cli.common import make_runner, restore_config
+    from pchc_rsl.cli.common import restore_config
+    from pchc_rsl.cli.eval import loaded_policy
     from pchc_rsl.evaluation import TASK_EVALUATION, evaluation_preset
     from pchc_rsl.runners import load_checkpoint
 
@@ -134,10 +133,8 @@ def load_policy(path: str, num_envs: int, seed: int, episode_length_s: float | N
             interval = push_every if push_every > 0 else 1e9  # 0: never by itself, still on a key press
             cfg.env.push.interval_s = (interval, interval)
     cfg.num_envs, cfg.seed, cfg.device = num_envs, seed, "cpu"
-    with contextlib.redirect_stdout(io.StringIO()):  # rsl-rl prints the models it builds; not news when watching
-        runner = make_runner(cfg)
-        runner.load(path, map_location="cpu")
-    return task, runner.env, runner.get_inference_policy()
+    runner, policy = loaded_policy(path, cfg)
+    return task, runner.env, policy
 
 
 def check_objectives(env, preferences, path: str) -> None:
