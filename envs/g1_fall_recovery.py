@@ -166,11 +166,14 @@ class G1FallRecoveryEnv(G1Env):
         """Table I per episode. Energy: mean mechanical power sum_j |tau_j dq_j| in J/s, overall and in each phase
         (so, as in the paper's table, the overall figure lies between the phases'); torque: mean over the steps of
         each phase of sum_j |tau_j| (Nm); COM displacement: the whole-body COM's largest horizontal distance from
-        its pre-push position within the window after each push, averaged over pushes (m); HoST success."""
+        its pre-push position within the window after each push, averaged over pushes (m); HoST success. Also
+        ``push_deviation``, the same for the pelvis: what r_disturb's position term charges, beside the paper's COM
+        figure, since the two need not follow each other (the upper body can move the COM while the pelvis holds)."""
         s = self.episode.get(env_ids)
         dt = self.dt
         steps = s["steps_recovery"] + s["steps_standing"]
         com, pushes = self._push_sums(env_ids, "com_deviation_sum", self.pushes.max_com_deviation)
+        pelvis, _ = self._push_sums(env_ids, "push_deviation_sum", self.pushes.max_deviation)
         return {
             "energy_overall": ratio(s["energy_recovery"] + s["energy_standing"], steps * dt),
             "energy_recovery": ratio(s["energy_recovery"], s["steps_recovery"] * dt),
@@ -179,6 +182,7 @@ class G1FallRecoveryEnv(G1Env):
             "torque_recovery": ratio(s["torque_recovery"], s["steps_recovery"]),
             "torque_standing": ratio(s["torque_standing"], s["steps_standing"]),
             "com_displacement": ratio(com, pushes),
+            "push_deviation": ratio(pelvis, pushes),
             "success": self.succeeded(env_ids).float(),
         }
 

@@ -199,3 +199,20 @@ def test_walking_actions_are_scaled_per_joint_by_effort_over_kp():
     offsets = sent[0][0].numpy() - env.default_joint_pos.numpy()
     np.testing.assert_allclose(offsets, expected, rtol=1e-5)
     assert offsets.max() == pytest.approx(0.548, abs=1e-3)  # hip pitch/yaw, as in mjlab's G1
+
+
+def test_fall_recovery_reports_pelvis_and_com_displacement_after_a_push():
+    from test_g1_fall_recovery import make_env
+
+    env = make_env(num_envs=2, curriculum=False, observation_noise=0.0)
+    push_now(env)
+    pelvis0, com0 = env.robot.base_pos[:, :2].clone(), env.robot.com_pos[:, :2].clone()
+    pelvis_max, com_max = torch.zeros(2), torch.zeros(2)
+    for _ in range(10):  # 0.2 s into the window
+        env.step(torch.zeros(2, env.num_actions))
+        pelvis_max = torch.maximum(pelvis_max, (env.robot.base_pos[:, :2] - pelvis0).norm(dim=-1))
+        com_max = torch.maximum(com_max, (env.robot.com_pos[:, :2] - com0).norm(dim=-1))
+    m = env.episode_metrics(torch.arange(2))
+    torch.testing.assert_close(m["push_deviation"], pelvis_max)
+    torch.testing.assert_close(m["com_displacement"], com_max)
+    assert (pelvis_max > 0.01).all() and not torch.allclose(pelvis_max, com_max)
