@@ -69,6 +69,10 @@ class G1EnvConfig:
     """w_j = effort limit / kp of joint j (mjlab's G1 rule: with eta = 0.25, a = 1 asks for a quarter of the joint's
     torque limit); False: w_j = 1 (radians)."""
     action_clip: float = 10.0
+    action_delay_s: tuple[float, float] = (0.0, 0.0)
+    """Delay from the policy's action to the actuators, s: drawn per env at every reset, uniformly over the whole
+    physics substeps in this range (sim-to-real G1 work trains with 0-20 ms). For the first d substeps of a policy
+    step the actuators still hold the previous target. At most one policy step (timestep * decimation)."""
     history_length: int = 5
     amp_window: int = 5
     """Frames of actuated joint positions in the ``amp`` observation group (the AMP state window)."""
@@ -77,6 +81,8 @@ class G1EnvConfig:
     command_ranges: dict[str, tuple[float, float]] = field(
         default_factory=lambda: {"lin_vel_x": (0.0, 0.0), "lin_vel_y": (0.0, 0.0), "ang_vel_z": (0.0, 0.0)}
     )
+    zero_command_probability: float = 0.0
+    """Share of episodes whose command is zero (standing still), drawn at each reset on top of command_ranges."""
     use_command: bool = False
     """Whether the policy observes the velocity command (walking)."""
     initial_joint_noise: float = 0.1

@@ -63,10 +63,12 @@ class BatchedMuJoCo:
         """Envs whose physics MuJoCo had to reset during the last step."""
 
     def step(self, ctrl: torch.Tensor | np.ndarray) -> None:
-        """Advance every env ``substeps`` physics steps holding ``ctrl`` [N, nu] (and ``body_forces``)."""
+        """Advance every env ``substeps`` physics steps holding ``ctrl`` [N, nu], or with one control per substep
+        [N, K, nu] (an action delay switches the target part-way through the step), and ``body_forces``."""
         nu = self.model.nu
         expected_time = self.state[:, 0] + self.substeps * self.model.opt.timestep
-        self.control[:, :, :nu] = np.asarray(ctrl)[:, None, :]
+        ctrl = np.asarray(ctrl)
+        self.control[:, :, :nu] = ctrl if ctrl.ndim == 3 else ctrl[:, None, :]
         if self._body_forces is not None:
             self.control[:, :, nu:] = self._body_forces.reshape(self.num_envs, 1, -1)
         self.runner.rollout(

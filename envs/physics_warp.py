@@ -61,6 +61,7 @@ class WarpMuJoCo:
             self.data = mjw.make_data(m, nworld=num_envs, nconmax=contacts_per_env, njmax=constraints_per_env)
             self._sensor_records = wp.zeros((substeps, num_envs, m.nsensordata), dtype=float)
             self._qvel_records = wp.zeros((substeps, num_envs, m.nv), dtype=float)
+            self._ctrl_substeps = wp.zeros((substeps, num_envs, m.nu), dtype=float)
         d = self.data
         self.qpos, self.qvel = wp.to_torch(d.qpos), wp.to_torch(d.qvel)
         self.substep_sensors = wp.to_torch(self._sensor_records).permute(1, 0, 2)
@@ -68,21 +69,23 @@ class WarpMuJoCo:
         self.body_forces = wp.to_torch(d.xfrc_applied) if with_body_forces else None
         self.diverged = torch.zeros(num_envs, dtype=torch.bool, device=self.device)
         """Always False: Warp does not reset a diverged world (the env's NaN and velocity checks catch it)."""
-        self._ctrl = wp.to_torch(d.ctrl)
         self._graph = None
         self._forward_and_record(slice(None))
 
     def _substeps(self) -> None:
         d, n = self.data, self.num_envs
         for k in range(self.substeps):
+            wp.copy(d.ctrl, self._ctrl_substeps, src_offset=k * n * self.model.nu, count=n * self.model.nu)
             mjw.step(self.wp_model, d)
             wp.copy(self._sensor_records, d.sensordata, dest_offset=k * n * self.model.nsensordata,
                     count=n * self.model.nsensordata)
             wp.copy(self._qvel_records, d.qvel, dest_offset=k * n * self.model.nv, count=n * self.model.nv)
 
     def step(self, ctrl: torch.Tensor) -> None:
-        """Advance every world ``substeps`` physics steps holding ``ctrl`` [N, nu] (and ``body_forces``)."""
-        self._ctrl.copy_(ctrl)
+        """Advance every world ``substeps`` physics steps holding ``ctrl`` [N, nu], or with one control per substep
+        [N, K, nu] (an action delay), and ``body_forces``."""
+        per_substep = wp.to_torch(self._ctrl_substeps)  # [K, N, nu]: read by each substep inside the graph
+        per_substep.copy_(ctrl.permute(1, 0, 2) if ctrl.ndim == 3 else ctrl.unsqueeze(0).expand_as(per_substep))
         with wp.ScopedDevice(self.wp_device), wp.ScopedStream(self._stream()):
             if self._graph is not None:
                 wp.capture_launch(self._graph)
