@@ -14,8 +14,8 @@ class EpisodeSums:
 
     def add(self, values: dict[str, torch.Tensor]) -> None:
         for key, value in values.items():
-            if key not in self.sums:
-                self.sums[key] = torch.zeros(self.num_envs, device=self.device)
+            if key not in self.sums:  # [N] or [N, ...] (a histogram per env)
+                self.sums[key] = torch.zeros_like(value, device=self.device)
             self.sums[key] += value
 
     def get(self, env_ids: torch.Tensor) -> dict[str, torch.Tensor]:

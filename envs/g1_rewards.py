@@ -29,10 +29,20 @@ def base_height(env, target: float) -> torch.Tensor:
     return (env.robot.base_pos[:, 2] - target) ** 2
 
 
-def feet_air_time(env, threshold: float) -> torch.Tensor:
-    """Sum over touchdowns of (air time - threshold), only while a velocity is commanded (legged_gym's term)."""
+def feet_air_time(env, threshold: float, max_air: float | None = None) -> torch.Tensor:
+    """Sum over touchdowns of (air time - threshold), only while a velocity is commanded (legged_gym's term).
+    ``max_air`` caps the air time counted, so swings longer than it earn no more (hops and held-up feet)."""
     moving = env.commands[:, :2].norm(dim=-1) > 0.1
-    return ((env.feet.last_air_time - threshold) * env.feet.first_contact).sum(-1) * moving
+    air = env.feet.last_air_time if max_air is None else env.feet.last_air_time.clamp(max=max_air)
+    return ((air - threshold) * env.feet.first_contact).sum(-1) * moving
+
+
+def joint_deviation(env, joints: list[str]) -> torch.Tensor:
+    """sum_j (q_j - q_default_j)^2 over the env's joints whose names contain one of ``joints`` (e.g. "hip_roll"):
+    unitree_rl_gym's G1 hip_pos term, which keeps the legs from splaying into a straddle."""
+    columns = [i for i, name in enumerate(env.cfg.joints) if any(part in name for part in joints)]
+    error = env.robot.joint_pos[:, columns] - env.default_joint_pos[columns]
+    return (error**2).sum(-1)
 
 
 def feet_slip(env) -> torch.Tensor:
@@ -67,9 +77,27 @@ def alive(env) -> torch.Tensor:
     return torch.ones(env.num_envs, device=env.device)
 
 
-def stride(env) -> torch.Tensor:
-    """The paper's r_stride = 1_contact ||p_current - p_last_contact|| at each touchdown, summed over feet."""
-    return env.feet.stride.sum(-1)
+def stride(env, along_heading: bool = True, min_command: float = 0.1) -> torch.Tensor:
+    """The paper's r_stride = I_contact ||p_current - p_last_contact||, read per step: every step a foot is in
+    contact (I_contact, a state) it pays the length of the step that put it there, from the point where it last
+    touched the ground before this stance (p_last_contact) to where it stands now (p_current).
+
+    Why this reading: paid once per touchdown (the earlier reading), the sum over an episode is the feet's total
+    horizontal travel, which at a given walking speed is the same for any step length; only extra foot motion
+    (sideways and backward taps) raised it. Paid per stance step, a step of length L is paid for as long as its
+    stance lasts, which grows with L at a given speed. Worked example, 0.5 m/s for 10 s with each foot on the ground
+    60% of the time: strides of 0.4 m (12.5 per foot) pay 0.4 m x 0.48 s each, 2.4 per foot; strides of 0.8 m
+    (6.25 per foot) pay 0.8 m x 0.96 s each, 4.8 per foot (times dt, as every term). The per-touchdown reading pays
+    5.0 m per foot for both.
+
+    Two documented changes to the paper's norm: ``along_heading`` pays only the forward part of the step (along the
+    base heading at the touchdown, never negative), so that straddling or side steps earn nothing; and nothing is
+    paid while the commanded speed is below ``min_command`` (m/s), where one step held in a split stance would
+    otherwise be paid for as long as the robot stands."""
+    step = env.feet.stance_step  # [N, foot, (forward, lateral)], 0 in the air
+    length = step[..., 0].clamp(min=0.0) if along_heading else step.norm(dim=-1)
+    moving = env.commands[:, :2].norm(dim=-1) >= min_command
+    return length.sum(-1) * moving
 
 
 def disturbance(env, vertical: bool = False, fall_cost: float = 0.0) -> torch.Tensor:
