@@ -134,7 +134,11 @@ class G1FallRecoveryEnv(G1Env):
         return self._fell_now
 
     def _push_eligible(self) -> torch.Tensor | None:
-        return self.reached_standing if self.cfg.push.only_when_standing else None
+        """With ``only_when_standing``: robots that have stood up and are up now (pelvis above the fall height), so
+        a robot that fell again is not pushed while it lies or gets up."""
+        if not self.cfg.push.only_when_standing:
+            return None
+        return self.reached_standing & (self.robot.base_pos[:, 2] > FALL_HEIGHT)
 
     def succeeded(self, env_ids: torch.Tensor) -> torch.Tensor:
         return self.reached_standing[env_ids] & ~self.fell_after_standing[env_ids]
@@ -151,7 +155,7 @@ class G1FallRecoveryEnv(G1Env):
         standing = self.reached_standing.float()
         # mechanical energy this step, J: sum_k sum_j |tau_j dq_j| * timestep over the substeps
         energy = (self.robot.torques_substeps * self.robot.joint_vel_substeps).abs().sum(dim=(1, 2)) * self.cfg.timestep
-        torque = self.robot.torques.abs().sum(-1)  # Nm, summed over joints
+        torque = self.robot.torques_substeps.abs().sum(-1).mean(-1)  # Nm, summed over joints, mean over substeps
         return {
             **super().step_metrics(),
             "energy_recovery": energy * (1 - standing),
