@@ -20,7 +20,7 @@ from tensordict import TensorDict
 from rsl_rl.env import VecEnv
 
 from pchc_rsl.envs.g1_config import PUSH_PRESETS, G1EnvConfig, PushConfig, RandomizationConfig, RewardTerm
-from pchc_rsl.envs.g1_contacts import FootContacts
+from pchc_rsl.envs.g1_contacts import FootContacts, median_from_histogram
 from pchc_rsl.envs.g1_metrics import EpisodeSums, ratio
 from pchc_rsl.envs.g1_observations import ObservationBuffers
 from pchc_rsl.envs.g1_pushes import Pushes
@@ -75,6 +75,11 @@ class G1Env(VecEnv):
         self.episode = EpisodeSums(n, dev)
         self.actions = torch.zeros(n, self.num_actions, device=dev)
         self.last_actions = torch.zeros(n, self.num_actions, device=dev)
+        self.joint_targets = torch.zeros(n, self.num_actions, device=dev)
+        """The position targets the actuators hold now (what a delayed action replaces part-way through a step)."""
+        self.action_delay = torch.zeros(n, dtype=torch.long, device=dev)
+        """Each env's action delay, in physics substeps (see G1EnvConfig.action_delay_s)."""
+        self._delay_range = self._substeps_of(cfg.action_delay_s)
         self.episode_length_buf = torch.zeros(n, dtype=torch.long, device=dev)
         self.commands = torch.zeros(n, 3, device=dev)
         self.preferences = EnvPreferences(n, self.num_objectives, cfg.preference_concentration, self.generator, dev)
@@ -91,6 +96,13 @@ class G1Env(VecEnv):
         self.reset()
         # every per-step quantity has a (zero) sum from the start, so episode_metrics also answers before a step
         self.episode.add({key: torch.zeros_like(value) for key, value in self.step_metrics().items()})
+
+    def _substeps_of(self, delay_s: tuple[float, float]) -> tuple[int, int]:
+        low, high = (int(round(t / self.cfg.timestep)) for t in delay_s)
+        if not 0 <= low <= high <= self.cfg.decimation:
+            raise ValueError(f"action_delay_s {tuple(delay_s)} must be 0 <= low <= high <= one policy step "
+                             f"({self.dt:g} s).")
+        return low, high
 
     # ---------------------------------------------------------------- preference
     def set_preference(self, lam) -> None:
@@ -109,13 +121,20 @@ class G1Env(VecEnv):
         self.physics.set_qpos_qvel(ids, qpos, qvel)
         self.robot.read()
         r, n = self.cfg.command_ranges, len(ids)
-        self.commands[ids] = torch.stack(
+        commands = torch.stack(
             [self._uniform(n, *r["lin_vel_x"]), self._uniform(n, *r["lin_vel_y"]), self._uniform(n, *r["ang_vel_z"])],
             1,
         )
+        if self.cfg.zero_command_probability > 0:
+            standing = torch.rand(n, generator=self.generator, device=self.device) < self.cfg.zero_command_probability
+            commands[standing] = 0.0
+        self.commands[ids] = commands
+        low, high = self._delay_range
+        self.action_delay[ids] = torch.randint(low, high + 1, (n,), generator=self.generator, device=self.device)
         self.preferences.resample(ids)
         self.actions[ids] = 0.0
         self.last_actions[ids] = 0.0
+        self.joint_targets[ids] = self.default_joint_pos
         self.episode_length_buf[ids] = 0
         self.feet.reset(ids, self.robot.foot_touch_substeps, self.robot.foot_pos, self.cfg.planted_foot_height)
         self.pushes.reset(ids)
@@ -164,10 +183,11 @@ class G1Env(VecEnv):
         target = self.default_joint_pos + self.action_scale * self.joint_action_weights * self.actions
         self.pushes.apply(self.physics, self.robot, self.commands, self._push_eligible())
         self._before_physics()
-        self.physics.step(target.to(self.physics.qpos.dtype))
+        self.physics.step(self._delayed_control(target).to(self.physics.qpos.dtype))
+        self.joint_targets = target
         unstable = self._unstable_envs()
         self.robot.read()
-        self.feet.update(self.robot.foot_touch_substeps, self.robot.foot_pos)
+        self.feet.update(self.robot.foot_touch_substeps, self.robot.foot_pos, self.robot.heading)
         self.episode_length_buf += 1
         self.pushes.track(self.robot)
         self._after_physics()
@@ -196,6 +216,15 @@ class G1Env(VecEnv):
         extras = {"time_outs": time_outs, "reward_groups": reward_groups, "log": log, "episode_metrics": finished,
                   "amp_observations": amp_before_reset}
         return self.get_observations(), reward, dones, extras
+
+    def _delayed_control(self, target: torch.Tensor) -> torch.Tensor:
+        """[N, J] this step's target -> the control the physics holds: [N, J] without delay, else [N, K, J] with the
+        previous target for each env's first ``action_delay`` substeps."""
+        if self._delay_range[1] == 0:
+            return target
+        substep = torch.arange(self.cfg.decimation, device=self.device)
+        held = (substep.unsqueeze(0) < self.action_delay.unsqueeze(1)).unsqueeze(-1)  # [N, K, 1]
+        return torch.where(held, self.joint_targets.unsqueeze(1), target.unsqueeze(1))
 
     # ---------------------------------------------------------------- hooks for tasks
     def _before_reset(self, env_ids: torch.Tensor) -> None:
@@ -234,9 +263,18 @@ class G1Env(VecEnv):
     def step_metrics(self) -> dict[str, torch.Tensor]:
         """[N] per-step quantities whose episode sums make the metrics (tasks extend it); no side effects."""
         closing = self.pushes.active & self.pushes.closing()
+        feet = self.feet
+        step = feet.step_vector  # [N, foot, (forward, lateral)], 0 where no touchdown
         return {
-            "stride_sum": self.feet.stride.sum(-1),
-            "touchdowns": self.feet.first_contact.float().sum(-1),
+            "stride_sum": feet.stride.sum(-1),
+            "touchdowns": feet.first_contact.float().sum(-1),
+            "forward_step_sum": step[..., 0].sum(-1),
+            "side_step_sum": step[..., 1].abs().sum(-1),
+            "backward_touchdowns": (feet.first_contact & (step[..., 0] < 0)).float().sum(-1),
+            "air_time_histogram": feet.air_time_histogram(),
+            "forward_speed_sum": self.robot.base_lin_vel[:, 0],
+            "command_speed_sum": self.commands[:, 0],
+            "steps": torch.ones(self.num_envs, device=self.device),
             "push_deviation_sum": torch.where(closing, self.pushes.max_deviation, 0.0),
             "com_deviation_sum": torch.where(closing, self.pushes.max_com_deviation, 0.0),
             "pushes": closing.float(),
@@ -254,9 +292,17 @@ class G1Env(VecEnv):
         """Metrics of these envs' episodes so far, each [len(env_ids)] (NaN where undefined, e.g. no push)."""
         s = self.episode.get(env_ids)
         deviation, pushes = self._push_sums(env_ids, "push_deviation_sum", self.pushes.max_deviation)
+        touchdowns = s["touchdowns"]
         return {
-            "stride_length": ratio(s["stride_sum"], s["touchdowns"]),
+            "stride_length": ratio(s["stride_sum"], touchdowns),
             "push_deviation": ratio(deviation, pushes),
+            "cadence": ratio(touchdowns, 2 * s["steps"] * self.dt),
+            "air_time": median_from_histogram(s["air_time_histogram"], self.dt),
+            "forward_step": ratio(s["forward_step_sum"], touchdowns),
+            "side_step": ratio(s["side_step_sum"], touchdowns),
+            "backward_touchdowns": 100.0 * ratio(s["backward_touchdowns"], touchdowns),
+            "forward_speed": ratio(s["forward_speed_sum"], s["steps"]),
+            "command_speed": ratio(s["command_speed_sum"], s["steps"]),
         }
 
     def _episode_log(self, done_ids: torch.Tensor, finished: dict[str, torch.Tensor], unstable: int) -> dict:

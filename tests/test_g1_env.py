@@ -66,9 +66,7 @@ def test_observation_shapes():
     assert extras["reward_groups"].shape == (4, 3) and r.shape == (4,) and d.shape == (4,)
 
 
-def test_stride_reward_from_scripted_contacts():
-    from pchc_rsl.envs import g1_rewards
-
+def test_touchdown_step_is_measured_from_the_feet_last_contact_in_the_heading_frame():
     env = make_walk_env(num_envs=1)
     K = env.cfg.decimation
     feet = env.feet
@@ -78,13 +76,108 @@ def test_stride_reward_from_scripted_contacts():
     touch = torch.zeros(1, K, 2)
     touch[0, K // 2 :, 0] = 50.0  # left touches down mid-step
     touch[0, :, 1] = 200.0  # right stays down
-    feet.update(touch, foot_pos)
+    heading = torch.tensor([[0.0, 1.0]])  # the base faces +y: forward is +y, lateral (left) is -x
+    feet.update(touch, foot_pos, heading)
     assert feet.first_contact.tolist() == [[True, False]]
-    assert g1_rewards.stride(env).item() == pytest.approx(0.5)  # |(0.3, 0.4) - (0, 0)|
-    # the touchdown point becomes the new last-contact point; the next touchdown measures from there
+    assert feet.stride[0, 0].item() == pytest.approx(0.5)  # |(0.3, 0.4) - (0, 0)|
+    torch.testing.assert_close(feet.step_vector[0, 0], torch.tensor([0.4, -0.3]))
+    torch.testing.assert_close(feet.stance_step[0, 0], torch.tensor([0.4, -0.3]))
+    # the touchdown point becomes the new last-contact point; the step is held while that stance lasts
     torch.testing.assert_close(feet.last_contact_pos[0, 0], torch.tensor([0.3, 0.4]))
-    feet.update(touch, foot_pos)
-    assert g1_rewards.stride(env).item() == 0.0  # still in contact: no new touchdown
+    feet.update(touch, foot_pos, heading)
+    assert feet.stride[0, 0].item() == 0.0 and (feet.step_vector == 0).all()
+    torch.testing.assert_close(feet.stance_step[0, 0], torch.tensor([0.4, -0.3]))
+    feet.update(torch.zeros(1, K, 2), foot_pos, heading)  # both feet lift off
+    assert (feet.stance_step == 0).all()
+
+
+def scripted_walk(env, stride: float, speed: float, duration: float, duty: float = 0.6):
+    """Walk both feet at ``speed`` along +x with strides of ``stride`` (each foot on the ground ``duty`` of its
+    cycle, the feet half a cycle apart), feeding FootContacts the sole forces and positions step by step; returns
+    the stride reward summed over the walk (per second of reward weight: times dt)."""
+    from pchc_rsl.envs import g1_rewards
+
+    dt, K = env.dt, env.cfg.decimation
+    period = stride / speed
+    env.commands[:] = torch.tensor([speed, 0.0, 0.0])
+    feet = env.feet
+    feet.reset(torch.tensor([0]), torch.full((1, K, 2), 100.0), torch.zeros(1, 2, 3), 0.03)
+    total = 0.0
+    for i in range(1, int(round(duration / dt)) + 1):
+        t = i * dt
+        touch, pos = torch.zeros(1, K, 2), torch.zeros(1, 2, 3)
+        for foot, offset in enumerate((0.0, 0.5)):
+            phase = (t / period + offset) % 1.0
+            cycles = math.floor(t / period + offset)
+            stance = phase < duty
+            touch[0, :, foot] = 100.0 if stance else 0.0
+            # on the ground the foot stays where it landed; in the air it moves a whole stride ahead
+            landed = cycles * stride
+            pos[0, foot, 0] = landed if stance else landed + stride * (phase - duty) / (1 - duty)
+        feet.update(touch, pos, torch.tensor([[1.0, 0.0]]))
+        total += float(g1_rewards.stride(env)) * dt
+    return total
+
+
+def test_stride_reward_pays_longer_steps_at_the_same_speed():
+    """The docstring's worked example: at 0.5 m/s for 10 s, duty 0.6, strides of 0.8 m earn twice what strides of
+    0.4 m earn (about 0.6 x L x 10 s per foot); paying each touchdown its step would earn both the same travel."""
+    env = make_walk_env(num_envs=1)
+    short = scripted_walk(env, stride=0.4, speed=0.5, duration=10.0)
+    long = scripted_walk(env, stride=0.8, speed=0.5, duration=10.0)
+    assert short == pytest.approx(2 * 0.6 * 0.4 * 10.0, rel=0.1)
+    assert long == pytest.approx(2 * 0.6 * 0.8 * 10.0, rel=0.1)
+    assert long / short == pytest.approx(2.0, rel=0.1)
+
+
+def test_stride_reward_pays_nothing_sideways_backwards_or_when_told_to_stand():
+    from pchc_rsl.envs import g1_rewards
+
+    env = make_walk_env(num_envs=3)
+    env.feet.contact[:] = True
+    env.feet.stance_step[:] = torch.tensor([[[0.3, 0.0], [0.0, 0.0]], [[0.0, 0.2], [-0.2, 0.0]], [[0.3, 0.0], [0.2, 0]]])
+    env.commands[:] = torch.tensor([[0.5, 0, 0], [0.5, 0, 0], [0.0, 0, 0]])
+    torch.testing.assert_close(g1_rewards.stride(env), torch.tensor([0.3, 0.0, 0.0]))
+    # the paper's plain norm, on request
+    torch.testing.assert_close(g1_rewards.stride(env, along_heading=False), torch.tensor([0.3, 0.4, 0.0]))
+
+
+def test_action_delay_holds_the_previous_target_for_the_first_substeps():
+    """env.action_delay_s (0.01, 0.01) on the fast physics (5 ms substeps): 2 of the 4 substeps hold the old
+    target; the physics receives one control per substep."""
+    env = make_walk_env(num_envs=2, action_delay_s=(0.01, 0.01))
+    assert env.action_delay.tolist() == [2, 2]
+    previous = env.joint_targets.clone()
+    target = previous + 0.1
+    control = env._delayed_control(target)
+    assert control.shape == (2, env.cfg.decimation, env.num_actions)
+    torch.testing.assert_close(control[:, :2], previous.unsqueeze(1).expand(2, 2, -1))
+    torch.testing.assert_close(control[:, 2:], target.unsqueeze(1).expand(2, 2, -1))
+    env.step(torch.ones(2, env.num_actions))
+    expected = env.default_joint_pos + env.action_scale * env.joint_action_weights * 1.0
+    torch.testing.assert_close(env.joint_targets, expected.expand(2, -1))
+    with pytest.raises(ValueError, match="one policy step"):
+        make_walk_env(num_envs=1, action_delay_s=(0.0, 0.05))
+
+
+def test_action_delay_is_seen_in_the_physics():
+    """A delayed env's joints answer a new target later than an undelayed one's: after one step the undelayed
+    knee has moved further towards it (same start, same action)."""
+    env = make_walk_env(num_envs=2, action_delay_s=(0.0, 0.02), initial_joint_noise=0.0)
+    env.action_delay[:] = torch.tensor([0, 4])  # env 1 holds the old target for the whole step
+    knee = env.cfg.joints.index("left_knee_joint")
+    start = env.robot.joint_pos[:, knee].clone()
+    action = torch.zeros(2, env.num_actions)
+    action[:, knee] = 2.0
+    env.step(action)
+    moved = env.robot.joint_pos[:, knee] - start
+    assert moved[0] > 0.05 and abs(moved[1]) < 0.5 * moved[0]
+
+
+def test_zero_command_share():
+    env = make_walk_env(num_envs=200, zero_command_probability=0.5)
+    standing = (env.commands == 0).all(-1).float().mean().item()
+    assert 0.35 < standing < 0.65
 
 
 def push_now(env):

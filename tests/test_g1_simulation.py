@@ -166,7 +166,15 @@ def test_fall_recovery_evaluation_pushes_wait_for_the_robot_to_stand():
     for _ in range(20):  # lying on the floor: no push however long
         env.step(torch.zeros(2, env.num_actions))
         assert not env.pushes.active.any()
-    env.reached_standing[:] = True
+    env.reached_standing[:] = True  # stood up once, but lies on the floor again (fell): still no push
+    env.step(torch.zeros(2, env.num_actions))
+    assert not env.pushes.active.any()
+    from pchc_rsl.robots.g1.constants import STANDING_HEIGHT
+
+    qpos, qvel = super(type(env), env).initial_state(torch.arange(2))  # standing at the default pose
+    assert qpos[0, 2] == STANDING_HEIGHT
+    env.physics.set_qpos_qvel(torch.arange(2), qpos, qvel)
+    env.robot.read()
     env.step(torch.zeros(2, env.num_actions))
     assert env.pushes.active.all()
 
@@ -190,7 +198,7 @@ def test_fall_recovery_curriculum_travels_with_the_env_state():
 def test_walking_actions_are_scaled_per_joint_by_effort_over_kp():
     from pchc_rsl.robots.g1.constants import joint_gains, joint_motor
 
-    env = make_walk_env(num_envs=1)
+    env = make_walk_env(num_envs=1, action_delay_s=(0.0, 0.0))  # one control for the whole step
     sent = []
     step = env.physics.step
     env.physics.step = lambda ctrl: (sent.append(ctrl.clone()), step(ctrl))[1]
