@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pchc_rsl.configs.base import TaskConfig
 from pchc_rsl.configs.g1_training import g1_task_config
-from pchc_rsl.envs.g1_env import G1EnvConfig, RewardTerm
+from pchc_rsl.envs.g1_env import G1EnvConfig, PushConfig, RandomizationConfig, RewardTerm
 from pchc_rsl.robots.g1.constants import WALK_JOINTS
 
 R = "pchc_rsl.envs.g1_rewards:"
@@ -12,9 +12,14 @@ R = "pchc_rsl.envs.g1_rewards:"
 
 def walk_rewards() -> list[RewardTerm]:
     """Task terms after mjlab's G1 velocity task (src/mjlab/tasks/velocity/velocity_env_cfg.py and
-    config/g1/env_cfgs.py): tracking weighted 2.0 (std 0.5 and sqrt(0.5)), foot clearance -2.0, no air-time term
-    (mjlab turns it off for the G1). mjlab's upright and posture terms reward staying up; ``alive`` stands in for
-    them here. Objectives are the paper's equations."""
+    config/g1/env_cfgs.py): tracking weighted 2.0 (std 0.5 and sqrt(0.5)), foot clearance -2.0. mjlab's upright and
+    posture terms reward staying up; ``alive`` stands in for them here.
+
+    Gait terms (the shipped walker tapped its feet 4-10 times a second): legged_gym's air-time term, which charges
+    every swing shorter than 0.3 s and pays longer ones up to 0.5 s, and unitree_rl_gym's G1 hip_pos penalty on hip
+    roll and yaw against straddling. Objectives are the paper's equations: r_stride read per stance step (see
+    g1_rewards.stride), r_disturb with a fall costing 5 (a fall ends the episode, which without it ends r_disturb's
+    cost too, so falling was the cheapest answer to a strong push at the disturbance end)."""
     return [
         RewardTerm(R + "track_lin_vel_xy", 2.0, params={"std": 0.5}),
         RewardTerm(R + "track_ang_vel_z", 2.0, params={"std": 0.707}),
@@ -22,11 +27,13 @@ def walk_rewards() -> list[RewardTerm]:
         RewardTerm(R + "base_height", -10.0, params={"target": 0.74}),
         RewardTerm(R + "feet_slip", -0.1),
         RewardTerm(R + "feet_clearance", -2.0, params={"target_height": 0.1}),
+        RewardTerm(R + "feet_air_time", 3.0, params={"threshold": 0.3, "max_air": 0.5}),
+        RewardTerm(R + "joint_deviation", -1.0, params={"joints": ["hip_roll", "hip_yaw"]}),
         RewardTerm(R + "joint_limits", -5.0),
         RewardTerm(R + "torques", -1e-5),
         RewardTerm(R + "action_rate", -0.01),
         RewardTerm(R + "alive", 1.0),
-        RewardTerm(R + "disturbance", 1.0, group="disturbance"),
+        RewardTerm(R + "disturbance", 1.0, group="disturbance", params={"fall_cost": 5.0}),
         RewardTerm(R + "stride", 1.0, group="stride"),
     ]
 
@@ -40,6 +47,10 @@ def walk_env(fast: bool = False) -> G1EnvConfig:
         use_command=True,
         action_scale_per_joint=True,  # mjlab's G1: 0.25 * effort / kp, 0.35-0.55 rad per unit action
         command_ranges={"lin_vel_x": (0.0, 1.0), "lin_vel_y": (0.0, 0.0), "ang_vel_z": (0.0, 0.0)},
+        zero_command_probability=0.15,  # standing still is a command too (the evaluation's 0 m/s)
+        action_delay_s=(0.0, 0.02),  # a robot's 0-20 ms from sensing to actuation
+        push=PushConfig(velocity=(0.3, 2.0)),  # spans the evaluation presets, mild to strong
+        randomization=RandomizationConfig(added_base_mass=(-1.0, 5.0), actuator_strength=(0.8, 1.1)),
         objective_names=["disturbance", "stride"],  # Table II's order: lambda = (0, 1) prioritises stride
         rewards=walk_rewards(),
         termination_height=0.45,

@@ -17,6 +17,8 @@ from pchc_rsl.configs import ACTOR_CLASSES, TASKS
 from pchc_rsl.configs.base import LOGGERS
 
 PROG = "pchc-train"
+INIT_FROM_PARTS = {"actor": True, "critic": True, "amp": True, "optimizer": False, "iteration": False, "rnd": False}
+"""What --init-from takes from its checkpoint: the networks (with their normalisers), not the training progress."""
 OVERRIDE_SHAPE = re.compile(r"^[A-Za-z_][\w.]*=")
 
 
@@ -55,6 +57,10 @@ def build_parser(task_help: str = "") -> argparse.ArgumentParser:
     parser.add_argument("--resume", metavar="CKPT",
                         help="continue this checkpoint in a new run folder, with its config; flags and KEY=VALUE "
                         "given here override it")
+    parser.add_argument("--init-from", metavar="CKPT",
+                        help="a new run of --task's config (with flags and KEY=VALUE) whose networks start from "
+                        "this checkpoint's weights (actor, critics, AMP discriminator): fine-tuning after a reward "
+                        "or environment change; fresh optimizer, iterations from 0")
     parser.add_argument("--show-config", action="store_true", help="print the resolved config and exit")
     parser.add_argument("-v", "--verbose", action="store_true",
                         help="also print the models, rsl-rl's full per-iteration block and error tracebacks")
@@ -99,6 +105,9 @@ def resolve(args) -> tuple:
     from pchc_rsl.runners import load_checkpoint
 
     notes = []
+    if args.resume and args.init_from:
+        raise ValueError("give --resume (continue a run with its config) or --init-from (a new run starting from its "
+                         "weights), not both.")
     if args.resume:
         saved = saved_config(args.resume, load_checkpoint(args.resume))
         if args.task is not None and args.task != saved["task"]:
@@ -158,6 +167,10 @@ def resolve(args) -> tuple:
     config["overrides"] = [f"{k}={_show(after[k])}" for k in changed]
     if args.resume:
         config["resumed_from"] = os.path.abspath(args.resume)
+    if args.init_from:
+        load_checkpoint(args.init_from)  # unreadable: refused here, before a run folder exists
+        config["initialised_from"] = os.path.abspath(args.init_from)
+        notes.append(f"networks start from {args.init_from}'s weights; fresh optimizer, iterations from 0")
     return cfg, config, notes
 
 
@@ -177,6 +190,8 @@ def train(cfg, config: dict, log_dir: str, args) -> None:
         runner = make_runner(cfg, log_dir, verbose=args.verbose, config=config)
         if args.resume:
             runner.load(args.resume, resume=True)
+        elif args.init_from:
+            runner.load(args.init_from, load_cfg=INIT_FROM_PARTS)
         first = runner.current_learning_iteration
         last = first + cfg.runner.max_iterations - 1
         print(f"{PROG}: {cfg.name}, {cfg.num_envs} envs on {cfg.device}, iterations {first}-{last} -> {log_dir}",
