@@ -7,6 +7,7 @@ import os
 import pytest
 import torch
 
+import pchc_rsl.evaluation
 from pchc_rsl.cli import eval as eval_cli
 from pchc_rsl.cli import train as train_cli
 from pchc_rsl.cli.common import make_runner, restore_config
@@ -98,7 +99,8 @@ def test_checkpoints_of_different_tasks_are_refused_before_evaluating(toy_checkp
     other = torch.load(toy_checkpoint, weights_only=True)
     other["config"]["task"] = "g1-walk"
     torch.save(other, tmp_path / "walk.pt")
-    monkeypatch.setattr(eval_cli, "evaluate_checkpoint", lambda *a: pytest.fail("evaluated before checking"))
+    monkeypatch.setattr(pchc_rsl.evaluation, "evaluate_checkpoint",
+                        lambda *a, **k: pytest.fail("evaluated before checking"))
     with pytest.raises(SystemExit, match=r"different tasks \['g1-walk', 'toy'\]"):
         eval_cli.main([str(toy_checkpoint), str(tmp_path / "walk.pt"), "--output", str(tmp_path / "eval")])
     assert not (tmp_path / "eval").exists()
@@ -111,19 +113,19 @@ def test_undefined_metrics_are_null_and_an_empty_plot_says_why(tmp_path):
     results = [{"name": "run/model_0.pt", "checkpoint": "x", "rows": rows,
                 "front": {"hypervolume": 0.0, "sparsity": nan, "reference_point": [-60.0, -60.0], "num_points": 0}}]
 
-    class Args:
-        output, seed = str(tmp_path / "eval"), 0
+    from pchc_rsl.evaluation.plots import _empty_front_reason
+    from pchc_rsl.evaluation.report import write_outputs
 
-    written = eval_cli.write_outputs(results, TOY_EVALUATION, {}, None, Args)
+    written = write_outputs(results, TOY_EVALUATION, {}, None, str(tmp_path / "eval"), 0)
     text = (tmp_path / "eval" / "results.json").read_text()
     assert "NaN" not in text and "Infinity" not in text
     saved = json.loads(text)["results"][0]
     assert saved["rows"][0]["metrics"] == {"goal_a": None, "goal_b": -3.0}
     assert saved["front"]["sparsity"] is None
     assert written[-1].endswith("pareto.png")
-    reason = eval_cli._empty_front_reason(results, TOY_EVALUATION)
+    reason = _empty_front_reason(results, TOY_EVALUATION)
     assert "goal_a" in reason and "undefined at every preference" in reason
-    assert eval_cli._empty_front_reason([{**results[0], "rows": [
+    assert _empty_front_reason([{**results[0], "rows": [
         {"preference": [1.0, 0.0], "metrics": {"goal_a": -1.0, "goal_b": -2.0}}]}], TOY_EVALUATION) == ""
     assert math.isnan(rows[0]["metrics"]["goal_a"])  # the caller's results are not changed
 

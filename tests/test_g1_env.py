@@ -306,3 +306,58 @@ def test_walking_fall_cost_charges_a_terminating_fall():
     robot.base_pos[0, 2] = env.cfg.termination_height - 0.1
     reward = g1_rewards.disturbance(env, fall_cost=2.0) - g1_rewards.disturbance(env)
     torch.testing.assert_close(reward * env.dt, torch.tensor([-2.0, 0.0]))
+
+
+def test_gait_metrics_of_a_scripted_walk_and_of_backward_side_taps():
+    """Strides of 0.6 m at 0.5 m/s (a 1.2 s cycle, each foot 0.48 s in the air): 0.83 touchdowns per foot per
+    second, forward step 0.6 m, no side step or backward touchdown, median air time 0.48 s. Then a foot tapping
+    0.1 m behind and 0.2 m beside where it lifted off: every touchdown is backward."""
+    from pchc_rsl.envs.g1_contacts import median_from_histogram
+
+    env = make_walk_env(num_envs=1)
+    env.episode.reset(torch.tensor([0]))
+    dt, K = env.dt, env.cfg.decimation
+    stride, speed, duty = 0.6, 0.5, 0.6
+    period = stride / speed
+    feet = env.feet
+    feet.reset(torch.tensor([0]), torch.full((1, K, 2), 100.0), torch.zeros(1, 2, 3), 0.03)
+    steps = int(round(6.0 / dt))
+    for i in range(1, steps + 1):
+        t = i * dt
+        touch, pos = torch.zeros(1, K, 2), torch.zeros(1, 2, 3)
+        for foot, offset in enumerate((0.0, 0.5)):
+            phase = (t / period + offset) % 1.0
+            landed = math.floor(t / period + offset) * stride
+            touch[0, :, foot] = 100.0 if phase < duty else 0.0
+            pos[0, foot, 0] = landed if phase < duty else landed + stride * (phase - duty) / (1 - duty)
+        feet.update(touch, pos, torch.tensor([[1.0, 0.0]]))
+        env.episode.add(env.step_metrics())
+    m = env.episode_metrics(torch.tensor([0]))
+    touchdowns = env.episode.get(torch.tensor([0]))["touchdowns"].item()
+    assert touchdowns in (9, 10)  # 5 cycles of each foot in 6 s, the first touchdown of the second foot at 0.6 s
+    assert m["cadence"].item() == pytest.approx(touchdowns / (2 * 6.0))
+    assert m["forward_step"].item() == pytest.approx(stride, abs=0.02)
+    assert m["side_step"].item() == pytest.approx(0.0, abs=1e-6)
+    assert m["backward_touchdowns"].item() == 0.0
+    assert m["air_time"].item() == pytest.approx((1 - duty) * period, abs=dt + 1e-6)
+
+    env.episode.reset(torch.tensor([0]))
+    feet.reset(torch.tensor([0]), torch.full((1, K, 2), 100.0), torch.zeros(1, 2, 3), 0.03)
+    for i in range(40):  # the left foot taps every 4 steps: up 2, down 2, landing back and aside
+        up = i % 4 < 2
+        touch = torch.full((1, K, 2), 100.0)
+        touch[0, :, 0] = 0.0 if up else 100.0
+        pos = torch.zeros(1, 2, 3)
+        pos[0, 0, :2] = torch.tensor([-0.1, 0.2]) * ((i // 4) + (0 if up else 1))
+        feet.update(touch, pos, torch.tensor([[1.0, 0.0]]))
+        env.episode.add(env.step_metrics())
+    m = env.episode_metrics(torch.tensor([0]))
+    assert m["backward_touchdowns"].item() == 100.0
+    assert m["forward_step"].item() == pytest.approx(-0.1, abs=1e-5)
+    assert m["side_step"].item() == pytest.approx(0.2, abs=1e-5)
+    assert m["air_time"].item() == pytest.approx(3 * dt)  # 2 steps in the air, the touchdown step counted too
+    # the median of the air-time histogram: [1, 1, 2, 5] steps -> 1 step (lower median); no touchdown -> NaN
+    counts = torch.zeros(2, 50)
+    counts[0, 0], counts[0, 1], counts[0, 4] = 2, 1, 1
+    medians = median_from_histogram(counts, 0.02)
+    assert medians[0].item() == pytest.approx(0.02) and math.isnan(medians[1].item())

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import argparse
 
-from pchc_rsl.cli.eval import evaluation_config, loaded_policy, task_config_of
+from pchc_rsl.evaluation import evaluation_config, loaded_policy, task_config_of
 from pchc_rsl.evaluation import aggregate, evenly_spaced_preferences, format_metric, run_episodes
 
 

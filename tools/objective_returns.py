@@ -15,7 +15,7 @@ import argparse
 
 import torch
 
-from pchc_rsl.cli.eval import evaluation_config, loaded_policy, task_config_of
+from pchc_rsl.evaluation import evaluation_config, loaded_policy, task_config_of
 from pchc_rsl.evaluation import aggregate, evenly_spaced_preferences, format_metric
 
 

@@ -29,6 +29,9 @@ def build_parser() -> argparse.ArgumentParser:
         "MuJoCo's interactive viewer with keys to change lambda, push and reset (needs a display).",
     )
     parser.add_argument("checkpoint", help="a model_<it>.pt written by pchc-train")
+    parser.add_argument("overrides", nargs="*", metavar="KEY=VALUE",
+                        help="config overrides after the evaluation preset, as on pchc-eval (e.g. "
+                        "env.action_delay_s=0.02,0.02 to watch the policy with 20 ms of latency)")
     parser.add_argument("--preference", action="append", metavar="L1,L2",
                         help="a preference to show, repeatable (video default: 1,0 0.5,0.5 0,1; viewer: 0.5,0.5)")
     parser.add_argument("--seconds", type=float,
@@ -48,7 +51,7 @@ def has_display() -> bool:
 
 
 def main(argv: list[str] | None = None) -> None:
-    args = build_parser().parse_args(argv)
+    args = build_parser().parse_intermixed_args(argv)  # KEY=VALUE words may follow the options
     try:
         preferences = parse_preferences(args.preference, VIDEO_PREFERENCES if args.video else [VIEWER_PREFERENCE])
         check_arguments(args)
@@ -103,13 +106,15 @@ def check_arguments(args) -> None:
 
 
 # ---------------------------------------------------------------------------- the env and policy of a checkpoint
-def load_policy(path: str, num_envs: int, seed: int, episode_length_s: float | None, push_every: float | None):
-    """The checkpoint's env under pchc-eval's evaluation preset (its first push preset), and its inference policy.
+def load_policy(path: str, num_envs: int, seed: int, episode_length_s: float | None, push_every: float | None,
+                overrides: list[str] = ()):
+    """The checkpoint's env under pchc-eval's evaluation preset (its first push preset) and ``overrides``, and its
+    inference policy.
 
     Returns (task, env, policy); refuses tasks without a scene to show in one line."""
     from pchc_rsl.cli.common import restore_config
-    from pchc_rsl.cli.eval import loaded_policy
-    from pchc_rsl.evaluation import TASK_EVALUATION, evaluation_preset
+    from pchc_rsl.cli.overrides import apply_overrides
+    from pchc_rsl.evaluation import TASK_EVALUATION, evaluation_preset, loaded_policy
     from pchc_rsl.runners import load_checkpoint
 
     try:
@@ -132,6 +137,10 @@ def load_policy(path: str, num_envs: int, seed: int, episode_length_s: float | N
         if push_every is not None:
             interval = push_every if push_every > 0 else 1e9  # 0: never by itself, still on a key press
             cfg.env.push.interval_s = (interval, interval)
+    try:
+        apply_overrides(cfg, list(overrides))
+    except ValueError as error:
+        raise SystemExit(f"pchc-play: {error}") from None
     cfg.num_envs, cfg.seed, cfg.device = num_envs, seed, "cpu"
     runner, policy = loaded_policy(path, cfg)
     return task, runner.env, policy
@@ -187,7 +196,8 @@ def tile_label(env, i: int, falls: int) -> list[str]:
 # ---------------------------------------------------------------------------- video
 def record_checkpoint_video(checkpoint: str, preferences, path: str, args) -> str:
     """One episode per preference of ``args.seconds`` (default: the task's episode length), tiled into ``path``."""
-    task, env, policy = load_policy(checkpoint, len(preferences), args.seed, args.seconds, args.push_every)
+    task, env, policy = load_policy(checkpoint, len(preferences), args.seed, args.seconds, args.push_every,
+                                    args.overrides)
     check_objectives(env, preferences, checkpoint)
     if task == "toy":
         from pchc_rsl.envs.toy_render import ToyPlot
@@ -245,6 +255,7 @@ def write_eval_videos(checkpoints: list[str], preferences, args) -> list[str]:
     from pchc_rsl.envs.g1_render import RenderingUnavailable
 
     video_args = argparse.Namespace(seed=args.seed, seconds=args.episode_length, push_every=None, width=320,
+                                    overrides=getattr(args, "overrides", []),
                                     height=240, fps=25.0)
     written = []
     for checkpoint in checkpoints:
@@ -298,7 +309,7 @@ class LiveControls:
 
 
 def watch_checkpoint(checkpoint: str, preference, args) -> None:
-    task, env, policy = load_policy(checkpoint, 1, args.seed, 1e6, args.push_every)  # no time-outs while watching
+    task, env, policy = load_policy(checkpoint, 1, args.seed, 1e6, args.push_every, args.overrides)  # no time-outs while watching
     if task == "toy":
         raise SystemExit("pchc-play: the toy task has no MuJoCo scene to view; pass --video toy.gif for an animated "
                          "plot of its trajectories.")

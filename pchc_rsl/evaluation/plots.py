@@ -1,0 +1,86 @@
+"""The evaluation's figures: the Pareto front, fall recovery's energy curves, the preference switch."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+def _pyplot():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def plot_pareto(results, evaluation, path):
+    plt = _pyplot()
+    (a, _), (b, _) = evaluation.front
+    fig, ax = plt.subplots(figsize=(5.5, 4.5))
+    for result in results:
+        xs = [r["metrics"].get(a, np.nan) for r in result["rows"]]
+        ys = [r["metrics"].get(b, np.nan) for r in result["rows"]]
+        f = result["front"]
+        ax.plot(xs, ys, "o-", label=f"{result['name']}: HV {f['hypervolume']:.3g}, S {f['sparsity']:.3g}")
+        for row, x, y in zip(result["rows"], xs, ys):
+            ax.annotate("(" + ", ".join(f"{v:.2f}" for v in row["preference"]) + ")", (x, y), fontsize=7)
+    ax.set_xlabel(evaluation.columns.get(a, a))
+    ax.set_ylabel(evaluation.columns.get(b, b))
+    ax.set_title(f"{evaluation.table}; HV reference point {evaluation.reference_point}", fontsize=9)
+    empty = _empty_front_reason(results, evaluation)
+    if empty:
+        ax.text(0.5, 0.5, empty, transform=ax.transAxes, ha="center", va="center", fontsize=8, wrap=True)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def _empty_front_reason(results, evaluation) -> str:
+    """Why there is no point to plot, or '' when there is one: the front metric(s) undefined at every preference."""
+    keys = [key for key, _ in evaluation.front]
+    rows = [row for result in results for row in result["rows"]]
+    if any(all(math.isfinite(row["metrics"].get(key, math.nan)) for key in keys) for row in rows):
+        return ""
+    undefined = [key for key in keys if not any(math.isfinite(r["metrics"].get(key, math.nan)) for r in rows)]
+    return (f"No point to plot: {' and '.join(undefined)} undefined at every preference.\n"
+            "No episode lasted long enough to measure it\n(e.g. every episode fell before the first push).")
+
+
+def plot_energy_curves(curves, path):
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(5.5, 3.5))
+    for name, by_preference in curves.items():
+        for lam, curve in sorted(by_preference.items()):
+            ax.plot(-curve[:, 1], label=f"{name} {lam}")
+    ax.set_xlabel("policy step")
+    ax.set_ylabel("-r_energy per step")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def plot_switching(switch, path):
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(5.5, 3.5))
+    t = np.arange(len(switch["curve"])) * switch["dt"]
+    for i, name in enumerate(switch["objectives"]):
+        ax.plot(t, switch["curve"][:, i], label=f"r_{name}")
+    ax.axvline(switch["switch_step"] * switch["dt"], color="k", ls="--", label="lambda (0,1) -> (1,0)")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("objective reward per step (mean over envs)")
+    settle = switch["settle_time_s"]
+    settle = "n/a (no continuous objective)" if settle != settle else f"{settle:.2f} s"
+    ax.set_title(f"falls {switch['falls']}, settle time {settle}", fontsize=9)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+

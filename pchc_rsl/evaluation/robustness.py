@@ -1,0 +1,170 @@
+"""Deployment shifts: every preference under the conditions a robot brings (latency, other physics, friction,
+payload, weaker motors, sensor noise, other commands, stronger pushes), each a list of ``KEY=VALUE`` overrides on
+top of the task's evaluation preset, so any one of them is also a plain ``pchc-eval CKPT KEY=VALUE ...``.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from pchc_rsl.evaluation.report import _finite_or_null, format_metric
+
+
+@dataclass
+class Condition:
+    name: str
+    overrides: list[str] = field(default_factory=list)
+
+
+def _physical(friction: float = 1.0, mass: float = 0.0, strength: float = 1.0) -> list[str]:
+    """One model variant with exactly these physical values (randomisation's machinery, ranges of one value)."""
+    return ["env.randomization.enabled=true", "env.randomization.num_model_variants=1",
+            f"env.randomization.friction={friction},{friction}", f"env.randomization.added_base_mass={mass},{mass}",
+            f"env.randomization.actuator_strength={strength},{strength}"]
+
+
+def _command(speed: float) -> list[str]:
+    ranges = {"lin_vel_x": [speed, speed], "lin_vel_y": [0.0, 0.0], "ang_vel_z": [0.0, 0.0]}
+    return ["env.command_ranges=" + json.dumps(ranges).replace(" ", ""), "env.zero_command_probability=0"]
+
+
+WALK_PUSH_SWEEP = (1.0, 1.5, 2.0)
+FALL_RECOVERY_PUSH_SWEEP = (1.6, 2.0, 2.4)
+"""Push speeds (m/s) of the sweep, beyond the presets."""
+
+
+def default_conditions(task: str) -> list[Condition]:
+    """The default set of the evaluation issue: nominal, action latency 10 and 20 ms, the paper physics for a
+    ``-fast`` policy, friction 0.4 and 1.2, pelvis mass -1 and +5 kg, actuator strength 0.8, observation noise,
+    commands 0 and 1.0 m/s (walking; 0.5 is the nominal), and a push-speed sweep."""
+    walking = task.startswith("g1-walk")
+    conditions = [
+        Condition("nominal"),
+        Condition("latency 10 ms", ["env.action_delay_s=0.01,0.01"]),
+        Condition("latency 20 ms", ["env.action_delay_s=0.02,0.02"]),
+    ]
+    if task.endswith("-fast"):
+        conditions.append(Condition("paper physics (2 ms, x10)", ["env.timestep=0.002", "env.decimation=10"]))
+    conditions += [
+        Condition("friction 0.4", _physical(friction=0.4)),
+        Condition("friction 1.2", _physical(friction=1.2)),
+        Condition("pelvis -1 kg", _physical(mass=-1.0)),
+        Condition("pelvis +5 kg", _physical(mass=5.0)),
+        Condition("actuators x0.8", _physical(strength=0.8)),
+        Condition("observation noise", ["env.observation_noise=1.0"]),
+    ]
+    if walking:
+        conditions += [Condition("command 0 m/s", _command(0.0)), Condition("command 1.0 m/s", _command(1.0))]
+    for speed in WALK_PUSH_SWEEP if walking else FALL_RECOVERY_PUSH_SWEEP:
+        conditions.append(Condition(f"push {speed:g} m/s", [f"env.push.velocity={speed},{speed}"]))
+    return conditions
+
+
+HEADLINE = {
+    "walk": [("fall_rate", "falls (%)"), ("forward_speed", "forward speed (m/s)")],
+    "fall": [("success", "success (%)"), ("energy_overall", "energy (J/s)")],
+}
+"""The figures robustness.md and the heatmap show per task family (robustness.json has every metric)."""
+
+
+def headline(task: str) -> list[tuple[str, str]]:
+    return HEADLINE["walk" if task.startswith("g1-walk") else "fall"]
+
+
+def run_robustness(path: str, config: dict, preferences, conditions: list[Condition], num_envs: int, episodes: int,
+                   seed: int, overrides: list[str] = (), verbose: bool = False, device: str = "cpu") -> dict:
+    """Each condition's metrics at every preference, under the task's first push preset (mild) with the
+    condition's overrides after the user's. Returns {"task", "conditions", "rows"}."""
+    from pchc_rsl.evaluation.checkpoint import evaluate_checkpoint
+    from pchc_rsl.evaluation.presets import TASK_EVALUATION
+
+    evaluation = TASK_EVALUATION[config["task"]]
+    presets = evaluation.push_presets[:1] or None
+    rows = []
+    for condition in conditions:
+        print(f"robustness: {condition.name} ({' '.join(condition.overrides) or 'the evaluation preset'})",
+              flush=True)
+        result, _, _ = evaluate_checkpoint(path, config, preferences, num_envs=num_envs, episodes=episodes,
+                                           seed=seed, overrides=[*overrides, *condition.overrides],
+                                           verbose=verbose, device=device, presets=presets)
+        for row in result["rows"]:
+            rows.append({"condition": condition.name, "overrides": condition.overrides,
+                         "preference": row["preference"], "episodes": row["episodes"], "metrics": row["metrics"]})
+    return {"task": config["task"], "checkpoint": os.path.abspath(path),
+            "conditions": [c.name for c in conditions], "rows": rows}
+
+
+def robustness_markdown(report: dict) -> str:
+    """One table per headline figure: a row per condition, a column per preference."""
+    preferences = []
+    for row in report["rows"]:
+        if row["preference"] not in preferences:
+            preferences.append(row["preference"])
+    cell = {(r["condition"], tuple(r["preference"])): r for r in report["rows"]}
+    lines = [f"Deployment shifts of {report['checkpoint']} ({report['task']}); mean ± 95% interval half-width, "
+             "rates with the Wilson 95% interval", ""]
+    for key, title in headline(report["task"]):
+        lines += [f"### {title}", "",
+                  "| Condition | " + " | ".join("(" + ", ".join(f"{x:.2f}" for x in p) + ")" for p in preferences)
+                  + " |", "|---|" + "---|" * len(preferences)]
+        for condition in report["conditions"]:
+            cells = []
+            for p in preferences:
+                metrics = cell[(condition, tuple(p))]["metrics"]
+                value = metrics.get(key)
+                cells.append(format_metric(np.nan if value is None else value, metrics.get(f"{key}_ci95"), key))
+            lines.append(f"| {condition} | " + " | ".join(cells) + " |")
+        lines.append("")
+    return "\n".join(lines)
+
+
+def plot_robustness(report: dict, path: str) -> str:
+    """Heatmap(s) preference x condition of the headline figures."""
+    from pchc_rsl.evaluation.plots import _pyplot
+
+    plt = _pyplot()
+    figures = headline(report["task"])
+    conditions = report["conditions"]
+    preferences = []
+    for row in report["rows"]:
+        if row["preference"] not in preferences:
+            preferences.append(row["preference"])
+    cell = {(r["condition"], tuple(r["preference"])): r["metrics"] for r in report["rows"]}
+    fig, axes = plt.subplots(1, len(figures), figsize=(3.2 + 2.2 * len(figures), 0.35 * len(conditions) + 1.6),
+                             squeeze=False)
+    for ax, (key, title) in zip(axes[0], figures):
+        values = np.array([[cell[(c, tuple(p))].get(key) for p in preferences] for c in conditions], dtype=float)
+        rate = key in ("fall_rate", "success")
+        image = ax.imshow(values, aspect="auto", cmap="viridis_r" if key == "fall_rate" else "viridis",
+                          vmin=0.0 if rate else None, vmax=100.0 if rate else None)
+        ax.set_xticks(range(len(preferences)), ["(" + ", ".join(f"{x:.2g}" for x in p) + ")" for p in preferences],
+                      fontsize=7, rotation=30)
+        ax.set_yticks(range(len(conditions)), conditions if ax is axes[0][0] else [""] * len(conditions), fontsize=7)
+        for i in range(len(conditions)):
+            for j in range(len(preferences)):
+                if np.isfinite(values[i, j]):
+                    r, g, b, _ = image.cmap(image.norm(values[i, j]))
+                    ink = "k" if 0.299 * r + 0.587 * g + 0.114 * b > 0.5 else "w"
+                    ax.text(j, i, f"{values[i, j]:.0f}" if abs(values[i, j]) >= 10 else f"{values[i, j]:.2f}",
+                            ha="center", va="center", fontsize=6, color=ink)
+        ax.set_title(title, fontsize=9)
+        fig.colorbar(image, ax=ax, shrink=0.8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def write_robustness(report: dict, output: str) -> list[str]:
+    os.makedirs(output, exist_ok=True)
+    paths = [os.path.join(output, name) for name in ("robustness.json", "robustness.md", "robustness.png")]
+    with open(paths[0], "w") as f:
+        json.dump(_finite_or_null(report), f, indent=2, allow_nan=False)
+    with open(paths[1], "w") as f:
+        f.write(robustness_markdown(report))
+    plot_robustness(report, paths[2])
+    return paths

@@ -1,0 +1,120 @@
+"""Rolling a policy in an env at fixed preferences: finished episodes' metrics, returns, and a preference switch."""
+
+from __future__ import annotations
+
+import sys
+
+import numpy as np
+import torch
+
+
+def run_episodes(env, policy, preference, episodes: int, progress: str = "") -> tuple[list[dict], np.ndarray]:
+    """Roll the deterministic policy until every env finished ``episodes`` episodes at ``preference``.
+
+    Returns one metric dict per finished episode and the mean per-step reward groups [T, 1 + m] of the first
+    episode round (for step-wise curves)."""
+    finished = torch.zeros(env.num_envs, dtype=torch.long)
+    results, curve = [], []
+    steps = 0
+    total = episodes * env.max_episode_length
+    with torch.inference_mode():  # the env's buffers are inference tensors once stepped in this mode
+        env.set_preference(preference)
+        env.reset()
+        obs = env.get_observations()
+        while (finished < episodes).any():
+            obs, _, _, extras = env.step(policy(obs))
+            if steps < env.max_episode_length:
+                curve.append(extras["reward_groups"].mean(0).numpy())
+            steps += 1
+            done = extras["episode_metrics"]
+            for row, env_id in enumerate(done["env_ids"].tolist()):
+                if finished[env_id] < episodes:
+                    results.append({k: float(v[row]) for k, v in done.items() if k != "env_ids"})
+                    finished[env_id] += 1
+            if progress and steps % 25 == 0:
+                _progress(progress, min(steps, total), total)
+    if progress:
+        _progress(progress, total, total, end=True)
+    return results, np.array(curve)
+
+
+def _progress(label: str, done: int, total: int, end: bool = False) -> None:
+    """A bar redrawn in place on a terminal; in a log file (not a terminal) only the finished line."""
+    if not end and not sys.stderr.isatty():
+        return
+    width = 30
+    filled = int(width * done / max(total, 1))
+    sys.stderr.write(f"\r{label} [{'#' * filled}{'.' * (width - filled)}] {done}/{total}")
+    if end:
+        sys.stderr.write("\n")
+    sys.stderr.flush()
+
+
+def run_return_episodes(env, policy, preference, episodes: int, progress: str = "") -> tuple[list[dict], np.ndarray]:
+    """Like run_episodes, for an env without episode_metrics: each finished episode's undiscounted return of every
+    objective (summed from extras["reward_groups"]), keyed by ``env.cfg.objective_names``."""
+    names = list(env.cfg.objective_names)
+    finished = torch.zeros(env.num_envs, dtype=torch.long)
+    sums = torch.zeros(env.num_envs, len(names))
+    results, curve = [], []
+    with torch.inference_mode():
+        env.set_preference(preference)
+        env.reset()
+        obs = env.get_observations()
+        steps = 0
+        while (finished < episodes).any():
+            obs, _, dones, extras = env.step(policy(obs))
+            groups = extras["reward_groups"]
+            if steps < env.max_episode_length:
+                curve.append(groups.mean(0).numpy())
+            steps += 1
+            sums += groups[:, 1:]
+            for env_id in dones.nonzero(as_tuple=False).flatten().tolist():
+                if finished[env_id] < episodes:
+                    results.append({name: float(sums[env_id, i]) for i, name in enumerate(names)})
+                    finished[env_id] += 1
+            sums[dones.bool()] = 0.0
+    if progress:
+        _progress(progress, 1, 1, end=True)
+    return results, np.array(curve)
+
+
+def switching_run(env, policy, before, after, switch_step: int) -> dict:
+    """One episode at ``before`` switched to ``after`` at ``switch_step``: per-step mean objective rewards [T, m],
+    falls, and the time (s) after the switch until the objective curves settle (see ``settle_time``)."""
+    curve, falls = [], 0
+    with torch.inference_mode():
+        env.set_preference(before)
+        env.reset()
+        obs = env.get_observations()
+        for step in range(env.max_episode_length - 1):
+            if step == switch_step:
+                env.set_preference(after)
+            obs, _, _, extras = env.step(policy(obs))
+            curve.append(extras["reward_groups"][:, 1:].mean(0).numpy())
+            falls += int(extras["episode_metrics"]["fell"].sum())
+    curve = np.array(curve)
+    return {"curve": curve, "falls": falls, "settle_time_s": settle_time(curve, switch_step, env.dt), "dt": env.dt,
+            "switch_step": switch_step}
+
+
+def settle_time(curve: np.ndarray, switch_step: int, dt: float, continuous_share: float = 0.9) -> float:
+    """Seconds after ``switch_step`` until every continuous objective of ``curve`` ([T, m]) has settled: its trailing
+    1 s average stays within 10% of its post-switch range of its final 1 s average. The 1 s average spans a few
+    footsteps, so per-step events (touchdowns) count as continuous; objectives whose 1 s average is zero on more than
+    1 - ``continuous_share`` of the steps after the switch (the response to pushes a few seconds apart) have no level
+    to settle to and are left out. NaN when no objective is continuous or the episode is too short."""
+    window = max(1, int(round(1.0 / dt)))
+    if switch_step < window - 1 or len(curve) - switch_step < window:
+        return float("nan")  # an episode too short to hold 1 s on both sides of the switch
+    kernel = np.ones(window) / window
+    average = np.stack([np.convolve(c, kernel, mode="valid") for c in curve.T], axis=1)  # ends at step window-1
+    after = average[switch_step - (window - 1):]
+    continuous = (after != 0).mean(axis=0) >= continuous_share
+    if not continuous.any():
+        return float("nan")
+    after = after[:, continuous]
+    tolerance = 0.1 * np.ptp(after, axis=0)
+    unsettled = np.flatnonzero((np.abs(after - after[-1]) > tolerance).any(axis=1))
+    return float((unsettled[-1] + 1) * dt) if len(unsettled) else 0.0
+
