@@ -22,9 +22,14 @@ def test_parameters_are_the_mean_and_the_rest_is_the_newest(two_checkpoints):
     out = load_tool("average_checkpoints").main([new, old, "--out", str(root / "avg.pt")])  # order does not matter
     averaged = torch.load(out, weights_only=True)
     a, b = torch.load(old, weights_only=True), torch.load(new, weights_only=True)
-    for key in ("actor_state_dict", "critic_state_dict"):
+    for key in ("actor_state_dict", "critic_state_dict", "value_normalizer_state_dict"):
         for name, tensor in a[key].items():
-            if tensor.is_floating_point():
+            if name.endswith("_std"):  # the std of the averaged variance, not the mean of the stds
+                var = (a[key][name[:-4] + "_var"] + b[key][name[:-4] + "_var"]) / 2
+                assert torch.allclose(averaged[key][name], var.sqrt()), name
+                if not torch.equal(a[key][name], b[key][name]):
+                    assert not torch.allclose(averaged[key][name], (tensor + b[key][name]) / 2), name
+            elif tensor.is_floating_point():
                 assert torch.allclose(averaged[key][name], (tensor + b[key][name]) / 2), name
     changed = [n for n, t in a["actor_state_dict"].items() if t.is_floating_point()
                and not torch.equal(t, b["actor_state_dict"][n])]

@@ -8,8 +8,10 @@ a table's intervals at the ends of the preference range (g1.md: energy at (1, 0)
 cancels much of that noise. Only checkpoints of one lineage make sense here: averaging works for nearby points of
 one training trajectory, not for independently trained networks.
 
-Floating-point tensors of the actor and critic (weights and observation normalisers) are averaged; everything else
-(config, iteration, AMP discriminator, value normaliser, curriculum) is the newest checkpoint's. The optimizer state
+Floating-point tensors of the actor and critic (weights and observation normalisers) and the value normaliser the
+critics predict in are averaged; a normaliser's std is then recomputed as sqrt(var) of its averaged variance (the
+mean of the stds is not the std of the mean variance). Everything else (config, iteration, AMP discriminator,
+curriculum) is the newest checkpoint's. The optimizer state
 is dropped, so ``pchc-train --resume`` starts a fresh one, as for a released policy. The file records what it was
 averaged from under ``averaged_from`` (run folder, file and iteration of each).
 """
@@ -24,7 +26,7 @@ import torch
 from pchc_rsl.files import atomic_write
 from pchc_rsl.runners.checkpoint import load_checkpoint
 
-AVERAGED = ("actor_state_dict", "critic_state_dict")
+AVERAGED = ("actor_state_dict", "critic_state_dict", "value_normalizer_state_dict")
 
 
 def average_state_dicts(dicts: list[dict], names: list[str]) -> dict:
@@ -37,8 +39,12 @@ def average_state_dicts(dicts: list[dict], names: list[str]) -> dict:
             if state[key].shape != tensor.shape:
                 raise ValueError(f"{name}: {key} has shape {tuple(state[key].shape)}, {names[0]} has "
                                  f"{tuple(tensor.shape)}: not the same network.")
-    return {key: torch.stack([d[key] for d in dicts]).mean(0) if value.is_floating_point() else dicts[-1][key]
-            for key, value in dicts[-1].items()}
+    averaged = {key: torch.stack([d[key] for d in dicts]).mean(0) if value.is_floating_point() else dicts[-1][key]
+                for key, value in dicts[-1].items()}
+    for key in averaged:  # rsl-rl's EmpiricalNormalization keeps _var and _std = sqrt(_var) side by side
+        if key.endswith("_std") and key[: -len("_std")] + "_var" in averaged:
+            averaged[key] = averaged[key[: -len("_std")] + "_var"].sqrt()
+    return averaged
 
 
 def run_and_file(path: str) -> str:
@@ -57,7 +63,8 @@ def average_checkpoints(paths: list[str]) -> dict:
         raise ValueError(f"The checkpoints come from different tasks ({', '.join(sorted(map(str, tasks)))}).")
     averaged = {key: value for key, value in saved[-1].items() if key != "optimizer_state_dict"}
     for key in AVERAGED:
-        averaged[key] = average_state_dicts([s[key] for s in saved], paths)
+        if all(key in s for s in saved):
+            averaged[key] = average_state_dicts([s[key] for s in saved], paths)
     averaged["averaged_from"] = [f"{run_and_file(path)}@{s.get('iter')}" for path, s in zip(paths, saved)]
     return averaged
 
