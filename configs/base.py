@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import inspect
 from dataclasses import dataclass, field
@@ -190,7 +191,17 @@ class TaskConfig:
 
 def apply_saved(obj: Any, saved: dict) -> None:
     """Overwrite a config dataclass with a saved plain-dict version of it (as written by ``dataclasses.asdict``),
-    rebuilding nested dataclasses and lists of them."""
+    rebuilding nested dataclasses and lists of them.
+
+    A field the saved dict lacks was added after it was saved: it takes its dataclass default, which new fields
+    keep equal to the behaviour before they existed, not the task's current value (a walker saved before
+    ``action_delay_s`` existed ran without latency, whatever the task trains with now)."""
+    for f in dataclasses.fields(obj):
+        if f.name not in saved:
+            if f.default is not dataclasses.MISSING:
+                setattr(obj, f.name, copy.deepcopy(f.default))
+            elif f.default_factory is not dataclasses.MISSING:
+                setattr(obj, f.name, f.default_factory())
     for key, value in saved.items():
         if not hasattr(obj, key):
             raise ValueError(f"Saved config has '{key}', which {type(obj).__name__} does not: another version?")

@@ -347,3 +347,20 @@ def test_a_pci_checkpoint_that_predates_the_routing_scale_default_keeps_s_10(tmp
     assert make_runner(restore_config(old)).alg.actor.mlp.scale == 10.0
     old["runner"]["actor"]["kwargs"]["routing_scale"] = 7.0
     assert make_runner(restore_config(old)).alg.actor.mlp.scale == 7.0
+
+
+def test_a_checkpoint_saved_before_a_field_existed_runs_with_the_fields_default_not_the_tasks():
+    """The walking task now trains with 0-20 ms latency and 15% standing commands; a walker saved before those
+    fields existed ran without either, and its restored config must say so (its evaluation did not change)."""
+    from pchc_rsl.cli.common import restore_config
+    from pchc_rsl.configs import task_config
+
+    fresh = task_config("g1-walk-fast")
+    assert fresh.env.action_delay_s == (0.0, 0.02) and fresh.env.zero_command_probability == 0.15
+    old = json.loads(json.dumps(fresh.to_dict()))
+    del old["env"]["action_delay_s"], old["env"]["zero_command_probability"]
+    old["env"]["randomization"].pop("num_model_variants")
+    restored = restore_config(old)
+    assert restored.env.action_delay_s == (0.0, 0.0) and restored.env.zero_command_probability == 0.0
+    assert restored.env.randomization.num_model_variants == 64  # nested dataclasses too
+    assert tuple(restore_config(fresh.to_dict()).env.action_delay_s) == (0.0, 0.02)  # saved values still win
