@@ -29,11 +29,6 @@ class PushConfig:
     robot, as in the paper, not the one still on the floor)."""
 
 
-PUSH_PRESETS = {
-    "mild": PushConfig(interval_s=(3.0, 3.0), velocity=(0.5, 0.5)),
-    "strong": PushConfig(interval_s=(3.0, 3.0), velocity=(1.2, 1.2)),
-}
-"""Evaluation pushes: fixed interval and strength."""
 
 
 @dataclass

@@ -19,7 +19,7 @@ from tensordict import TensorDict
 
 from rsl_rl.env import VecEnv
 
-from pchc_rsl.envs.g1_config import PUSH_PRESETS, G1EnvConfig, PushConfig, RandomizationConfig, RewardTerm
+from pchc_rsl.envs.g1_config import G1EnvConfig, PushConfig, RandomizationConfig, RewardTerm
 from pchc_rsl.envs.g1_contacts import FootContacts, median_from_histogram
 from pchc_rsl.envs.g1_metrics import EpisodeSums, ratio
 from pchc_rsl.envs.g1_observations import ObservationBuffers
@@ -32,7 +32,7 @@ from pchc_rsl.preference import EnvPreferences
 from pchc_rsl.robots.g1.constants import STANDING_HEIGHT
 from pchc_rsl.robots.g1.model import build_g1_model, default_joint_positions
 
-__all__ = ["G1Env", "G1EnvConfig", "PUSH_PRESETS", "PushConfig", "RandomizationConfig", "RewardTerm"]
+__all__ = ["G1Env", "G1EnvConfig", "PushConfig", "RandomizationConfig", "RewardTerm"]
 
 
 class G1Env(VecEnv):

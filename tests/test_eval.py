@@ -97,3 +97,17 @@ def test_settle_time_of_a_step_change():
     assert settle_time(curve, 100, 0.02) == pytest.approx(0.9)
     assert math.isnan(settle_time(curve[:, 1:], 100, 0.02))
     assert math.isnan(settle_time(curve, 20, 0.02))  # under 1 s before the switch
+
+
+def test_push_presets_are_the_calibrated_speeds_per_task_and_the_v1_ones_stay_by_name():
+    from pchc_rsl.configs import task_config
+    from pchc_rsl.evaluation import FALL_RECOVERY_EVALUATION, evaluation_preset
+
+    walk = evaluation_preset(task_config("g1-walk-fast"), "strong", WALK_EVALUATION).env.push
+    assert (walk.velocity, walk.window_s, walk.interval_s) == ((2.25, 2.25), 1.0, (3.0, 3.0))
+    fall = evaluation_preset(task_config("g1-fall-recovery-fast"), "mild", FALL_RECOVERY_EVALUATION).env.push
+    assert (fall.velocity, fall.window_s, fall.only_when_standing) == ((2.25, 2.25), 3.0, True)
+    old = evaluation_preset(task_config("g1-fall-recovery-fast"), "strong-v1", FALL_RECOVERY_EVALUATION).env.push
+    assert (old.velocity, old.window_s) == ((1.2, 1.2), 1.0)
+    with pytest.raises(ValueError, match="not one of mild, strong, mild-v1, strong-v1"):
+        evaluation_preset(task_config("g1-walk-fast"), "gentle", WALK_EVALUATION)

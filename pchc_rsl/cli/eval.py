@@ -41,6 +41,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "robustness.json, robustness.md, robustness.png")
     parser.add_argument("--condition", action="append", metavar="NAME",
                         help="with --robustness: only these conditions (repeatable; names as in robustness.md)")
+    parser.add_argument("--push-presets", nargs="+", metavar="NAME",
+                        help="push presets in place of the task's (mild, strong), e.g. mild-v1 strong-v1 (the "
+                        "presets before the calibration); the table keeps its mild and strong columns")
     parser.add_argument("--force", action="store_true", help="write into an --output folder that holds results")
     parser.add_argument("--episode-length", type=arguments.positive_float, help="override the episode length (s)")
     parser.add_argument("--switch", action="store_true", help="also switch lambda (0,1) -> (1,0) mid-episode (G1)")
@@ -78,7 +81,7 @@ def main(argv: list[str] | None = None) -> None:
             result, curve, switch = evaluate_checkpoint(
                 path, saved[path], preferences, num_envs=args.num_envs, episodes=args.episodes, seed=args.seed,
                 episode_length=args.episode_length, switch=args.switch, overrides=args.overrides,
-                verbose=args.verbose, device=args.device)
+                verbose=args.verbose, device=args.device, presets=args.push_presets)
             results.append(result)
             curves[result["name"]] = curve
             switching = switching or switch
@@ -149,6 +152,10 @@ def check_inputs(args) -> tuple[str, dict, list[tuple[float, ...]]]:
         raise ValueError("checkpoints of different tasks " + str(sorted({c["task"] for c in saved.values()}))
                          + " cannot share one table; evaluate them separately.")
     task = next(iter(saved.values()))["task"]
+    unknown = [name for name in args.push_presets or [] if name not in TASK_EVALUATION[task].pushes]
+    if unknown:
+        known = ", ".join(TASK_EVALUATION[task].pushes) or "none"
+        raise ValueError(f"--push-presets {' '.join(unknown)}: task '{task}' has the push presets {known}.")
     if args.switch and TASK_EVALUATION[task].episode_returns:
         raise ValueError(f"--switch measures falls and settling of the G1 tasks; task '{task}' has no such metrics.")
     if args.episode_length is not None and TASK_EVALUATION[task].episode_returns:

@@ -49,8 +49,10 @@ def task_config_of(path: str, task_prefix: str, tool: str, what: str) -> dict:
 def evaluate_checkpoint(path: str, config: dict, preferences, num_envs: int = 64, episodes: int = 2, seed: int = 0,
                         episode_length: float | None = None, switch: bool = False, overrides: list[str] = (),
                         verbose: bool = False, device: str = "cpu", presets: list[str] | None = None):
-    """Every preference under each of the task's push presets (``presets`` to choose), after ``overrides``: one
-    result (rows of metrics per preference, the Pareto summary), the step-wise reward curves, the switch run."""
+    """Every preference under each of the task's push presets, after ``overrides``: one result (rows of metrics per
+    preference, the Pareto summary), the step-wise reward curves, the switch run. ``presets`` names other presets
+    of the task to play the task's roles in order (``["mild-v1", "strong-v1"]``: metrics still under mild/ and
+    strong/), or fewer (``["mild"]``: the first role only)."""
     task = config["task"]
     evaluation = TASK_EVALUATION[task]
     name = os.path.basename(os.path.dirname(os.path.abspath(path))) + "/" + os.path.basename(path)
@@ -61,8 +63,9 @@ def evaluate_checkpoint(path: str, config: dict, preferences, num_envs: int = 64
     counts = {p: 0 for p in preferences}
     curve_prefs = {preferences[0], preferences[len(preferences) // 2], preferences[-1]}
     curves, switched = {}, None
-    presets = presets or evaluation.push_presets or [None]
-    for preset_index, preset in enumerate(presets):
+    roles = evaluation.push_presets or [None]
+    presets = presets or roles
+    for preset_index, (role, preset) in enumerate(zip(roles, presets)):
         cfg = evaluation_config(config, preset, num_envs, seed, overrides, device)
         if episode_length is not None:
             cfg.env.episode_length_s = episode_length
@@ -73,7 +76,7 @@ def evaluate_checkpoint(path: str, config: dict, preferences, num_envs: int = 64
             finished, curve = run(runner.env, policy, lam, episodes, progress=label)
             summary = aggregate(finished)
             if preset is not None:
-                metrics[lam].update({f"{preset}/{k}": v for k, v in summary.items()})
+                metrics[lam].update({f"{role}/{k}": v for k, v in summary.items()})
             if preset_index == 0:
                 metrics[lam].update(summary)
                 counts[lam] = len(finished)
@@ -84,7 +87,9 @@ def evaluate_checkpoint(path: str, config: dict, preferences, num_envs: int = 64
             switched = switching_run(env, policy, (0.0, 1.0), (1.0, 0.0), env.max_episode_length // 2)
             switched["objectives"] = list(env.cfg.objective_names)
     rows = [{"preference": list(lam), "metrics": metrics[lam], "episodes": counts[lam]} for lam in preferences]
-    result = {"name": name, "checkpoint": os.path.abspath(path), "rows": rows}
+    result = {"name": name, "checkpoint": os.path.abspath(path), "rows": rows,
+              "push_presets": {role: {"preset": preset, "speed_window": evaluation.pushes.get(preset)}
+                               for role, preset in zip(roles, presets) if role is not None}}
     result["front"] = front_summary(front_points(rows, evaluation), evaluation)
     return result, curves, switched
 

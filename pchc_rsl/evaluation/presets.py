@@ -22,6 +22,9 @@ class TaskEvaluation:
     """Measure each objective's undiscounted episode return (run_return_episodes) instead of the env's
     episode_metrics, with the task's config as it is (no evaluation preset): for envs without task metrics."""
     push_presets: list[str] = field(default_factory=lambda: ["mild"])
+    """The push presets an evaluation runs, in order (the first one makes the unprefixed metrics)."""
+    pushes: dict[str, tuple[float, float]] = field(default_factory=dict)
+    """Every push preset of the task: name -> (speed m/s, window s); a push every 3 s in a random direction."""
     command: tuple[float, float, float] | None = None
     push_only_when_standing: bool = False
     """Push the robot once it stands (fall recovery), not while it is still on the floor."""
@@ -32,10 +35,12 @@ WALK_EVALUATION = TaskEvaluation(
     columns={"stride_length": "Avg. Stride (m)", "push_deviation": "Traj. Deviation (m)", "fall_rate": "Falls (%)",
              "forward_step": "Forward step (m)", "side_step": "Side step (m)", "cadence": "Cadence (1/s per foot)",
              "air_time": "Air time, median (s)", "backward_touchdowns": "Backward touchdowns (%)",
-             "forward_speed": "Forward speed (m/s)"},
+             "forward_speed": "Forward speed (m/s)",
+             "strong/fall_rate": "Falls, strong pushes (%)"},
     front=(("push_deviation", -1.0), ("stride_length", 1.0)),
     reference_point=(-2.0, 0.0),
-    push_presets=["mild"],
+    push_presets=["mild", "strong"],
+    pushes={"mild": (0.5, 1.0), "strong": (2.25, 1.0), "mild-v1": (0.5, 1.0), "strong-v1": (1.2, 1.0)},
     command=(0.5, 0.0, 0.0),
 )
 
@@ -56,6 +61,7 @@ FALL_RECOVERY_EVALUATION = TaskEvaluation(
     front=(("energy_overall", -1.0), ("mild/com_displacement", -1.0)),
     reference_point=(-3000.0, -3.0),
     push_presets=["mild", "strong"],
+    pushes={"mild": (2.25, 3.0), "strong": (2.5, 3.0), "mild-v1": (0.5, 1.0), "strong-v1": (1.2, 1.0)},
     push_only_when_standing=True,
 )
 
@@ -68,6 +74,13 @@ TOY_EVALUATION = TaskEvaluation(
     push_presets=[],
     episode_returns=True,
 )
+
+
+PUSH_CALIBRATION = """The presets come from tools/push_sweep.py --calibrate on the shipped policies at (0.5, 0.5)
+(docs/results/g1.md, "Push presets"): mild is the speed whose deviation after a push comes closest to the paper's at
+(0.5, 0.5) while 90% of episodes stay up, strong the speed at which the share that stays up comes closest to the
+paper's 75.7%. Fall recovery measures the COM until the next push (3 s), long enough for the robot to settle; the
+1 s window of the v1 presets cut the displacement short. The v1 presets (0.5 and 1.2 m/s, 1 s) were used before."""
 
 
 TASK_EVALUATION = {
@@ -88,14 +101,17 @@ def evenly_spaced_preferences(count: int) -> list[tuple[float, float]]:
 
 def evaluation_preset(cfg, push_preset: str, evaluation: TaskEvaluation):
     """A copy of a task config for evaluation: no randomisation, no noise, no curriculum, the preset's pushes."""
-    from pchc_rsl.envs.g1_env import PUSH_PRESETS
+    from pchc_rsl.envs.g1_config import PushConfig
 
     cfg = copy.deepcopy(cfg)
     env = cfg.env
     env.randomization.enabled = False
     env.observation_noise = 0.0
     env.preference_resample_prob = 0.0
-    env.push = copy.deepcopy(PUSH_PRESETS[push_preset])
+    if push_preset not in evaluation.pushes:
+        raise ValueError(f"push preset '{push_preset}' is not one of {', '.join(evaluation.pushes)}.")
+    speed, window = evaluation.pushes[push_preset]
+    env.push = PushConfig(interval_s=(3.0, 3.0), velocity=(speed, speed), window_s=window)
     env.push.only_when_standing = evaluation.push_only_when_standing
     if hasattr(env, "curriculum"):
         env.curriculum = False
