@@ -47,11 +47,19 @@ def test_models_actuate_the_task_joints():
         build_g1_model(["left_tail_joint"])
 
 
-def test_missing_model_says_how_to_fix_it(tmp_path):
+def test_missing_model_says_how_to_fix_it_in_one_line(tmp_path):
     code = "from pchc_rsl.robots.g1.model import load_g1_spec\nload_g1_spec()"
     env = {**os.environ, "MENAGERIE_ROOT": str(tmp_path)}
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
     assert result.returncode != 0 and "MENAGERIE_ROOT" in result.stderr
+    # every G1 command: one line naming the variable, no traceback
+    walk = os.path.join(os.path.dirname(__file__), "..", "policies", "g1_walk.pt")
+    for command in (["pchc_rsl.cli.train", "--task", "g1-walk-fast", "--log-dir", str(tmp_path / "run")],
+                    ["pchc_rsl.cli.eval", walk, "--output", str(tmp_path / "eval")],
+                    ["pchc_rsl.cli.play", walk, "--video", str(tmp_path / "v.mp4")]):
+        result = subprocess.run([sys.executable, "-m", *command], capture_output=True, text=True, env=env)
+        assert result.returncode != 0 and "Traceback" not in result.stderr, command
+        assert len(result.stderr.strip().splitlines()) == 1 and "MENAGERIE_ROOT" in result.stderr, result.stderr
 
 
 def test_observation_shapes():

@@ -55,3 +55,34 @@ def test_a_released_fall_recovery_policy_resumes_where_its_curriculum_was(tmp_pa
     env_state = torch.load(tmp_path / "more" / "model_1.pt", weights_only=True)["training_state"]["env"]
     assert env_state["global_steps"] == 20000 + 4  # one iteration of 4 policy steps per env on top
     assert env_state["assist_level"] in (pytest.approx(0.35), pytest.approx(0.30))  # at most one step lower
+
+
+def test_a_release_is_never_replaced_without_force_and_is_written_whole_or_not_at_all(tmp_path):
+    train_cli.main(["--task", "toy", "--max-iterations", "1", "--log-dir", str(tmp_path / "run")])
+    original = str(tmp_path / "run" / "model_0.pt")
+    out = tmp_path / "policies"
+    ship = load_tool("ship_policy").main
+    pt, onnx = ship([original, "--name", "toy", "--out", str(out)])
+    before = {path: open(path, "rb").read() for path in (pt, onnx)}
+    with pytest.raises(SystemExit, match="exist; give another --name, or --force"):
+        ship([original, "--name", "toy", "--out", str(out)])
+    with pytest.raises(SystemExit, match="above --max-mb 0.0001; nothing written"):
+        ship([original, "--name", "toy", "--out", str(out), "--force", "--max-mb", "0.0001"])
+    assert {path: open(path, "rb").read() for path in (pt, onnx)} == before  # the old release untouched
+    with pytest.raises(SystemExit, match="nothing written"):
+        ship([original, "--name", "new", "--out", str(out), "--max-mb", "0.0001"])
+    assert sorted(os.listdir(out)) == ["toy.onnx", "toy.pt"]  # no half release, no scratch folder left
+    ship([original, "--name", "toy", "--out", str(out), "--force"])
+
+
+def test_export_onnx_refuses_to_replace_a_file_without_force(tmp_path):
+    from pchc_rsl.cli import export_onnx
+
+    train_cli.main(["--task", "toy", "--max-iterations", "1", "--log-dir", str(tmp_path / "run")])
+    target = tmp_path / "policy.onnx"
+    target.write_text("keep me")
+    with pytest.raises(SystemExit, match="exists; give another -o, or --force"):
+        export_onnx.main([str(tmp_path / "run" / "model_0.pt"), "-o", str(target)])
+    assert target.read_text() == "keep me"
+    export_onnx.main([str(tmp_path / "run" / "model_0.pt"), "-o", str(target), "--force"])
+    assert target.stat().st_size > 1000

@@ -364,3 +364,67 @@ def test_a_checkpoint_saved_before_a_field_existed_runs_with_the_fields_default_
     assert restored.env.action_delay_s == (0.0, 0.0) and restored.env.zero_command_probability == 0.0
     assert restored.env.randomization.num_model_variants == 64  # nested dataclasses too
     assert tuple(restore_config(fresh.to_dict()).env.action_delay_s) == (0.0, 0.02)  # saved values still win
+
+
+def _all_tensors(saved: dict, prefix: str = ""):
+    for key, value in saved.items():
+        if isinstance(value, torch.Tensor):
+            yield prefix + str(key), value
+        elif isinstance(value, dict):
+            yield from _all_tensors(value, f"{prefix}{key}.")
+
+
+def test_ctrl_c_during_an_update_saves_the_finished_iteration_bit_for_bit_and_resumes_exactly(tmp_path, monkeypatch):
+    """Interrupted inside iteration 2's update (its weights and optimizer already moved), the run saves
+    model_1.pt as it was when iteration 1 finished: every tensor (networks, Adam state, random streams) equals the
+    uninterrupted run's model_1.pt, and 2 resumed iterations equal iterations 2-3 of the uninterrupted run."""
+    from pchc_rsl.algorithms import MultiCriticPPO
+
+    args = ["--task", "toy", "--num-envs", "16", "--seed", "3"]
+    train_cli.main([*args, "--max-iterations", "4", "runner.save_interval=1", "--log-dir", str(tmp_path / "ref")])
+    original, calls = MultiCriticPPO.update, {"n": 0}
+
+    def update_then_interrupt(self):
+        calls["n"] += 1
+        result = original(self)
+        if calls["n"] == 3:  # iteration 2: the update ran, the iteration did not finish
+            raise KeyboardInterrupt
+        return result
+
+    monkeypatch.setattr(MultiCriticPPO, "update", update_then_interrupt)
+    with pytest.raises(SystemExit) as exit_:
+        train_cli.main([*args, "--max-iterations", "4", "runner.save_interval=100", "--log-dir", str(tmp_path / "cut")])
+    assert exit_.value.code == 130
+    monkeypatch.setattr(MultiCriticPPO, "update", original)
+    assert sorted(p.name for p in (tmp_path / "cut").glob("model_*.pt")) == ["model_0.pt", "model_1.pt"]
+    ref = torch.load(tmp_path / "ref" / "model_1.pt", weights_only=True)
+    cut = torch.load(tmp_path / "cut" / "model_1.pt", weights_only=True)
+    ref_tensors, cut_tensors = dict(_all_tensors(ref)), dict(_all_tensors(cut))
+    assert ref_tensors.keys() == cut_tensors.keys() and cut["iter"] == 1
+    for name, tensor in ref_tensors.items():
+        assert torch.equal(tensor, cut_tensors[name]), name
+    train_cli.main(["--resume", str(tmp_path / "cut" / "model_1.pt"), "--max-iterations", "2",
+                    "--log-dir", str(tmp_path / "more")])
+    ref3 = torch.load(tmp_path / "ref" / "model_3.pt", weights_only=True)
+    more3 = torch.load(tmp_path / "more" / "model_3.pt", weights_only=True)
+    for key in ("actor_state_dict", "critic_state_dict"):
+        for name, tensor in ref3[key].items():
+            assert torch.equal(tensor, more3[key][name]), f"{key}.{name}"
+
+
+def test_the_continue_line_after_an_interrupt_asks_for_what_is_left(tmp_path, monkeypatch, capsys):
+    interrupt_env_step_after(monkeypatch, 2 * 20 + 5)  # inside iteration 2 of 0-9
+    with pytest.raises(SystemExit):
+        train_cli.main([*SMALL, "--max-iterations", "10", "--log-dir", str(tmp_path / "run")])
+    out = capsys.readouterr().out
+    assert f"--resume {tmp_path / 'run' / 'model_1.pt'} --max-iterations 8" in out
+
+
+def test_resume_a_run_folder_takes_its_latest_checkpoint(tmp_path, capsys):
+    train_cli.main([*SMALL, "--max-iterations", "3", "runner.save_interval=1", "--log-dir", str(tmp_path / "a")])
+    train_cli.main(["--resume", str(tmp_path / "a"), "--max-iterations", "1", "--log-dir", str(tmp_path / "b")])
+    assert torch.load(tmp_path / "b" / "model_3.pt", weights_only=True)["iter"] == 3
+    assert f"its latest checkpoint, {tmp_path / 'a' / 'model_2.pt'}" in capsys.readouterr().out
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(SystemExit, match="holds no model_<it>.pt"):
+        train_cli.main(["--resume", str(tmp_path / "empty"), "--log-dir", str(tmp_path / "c")])

@@ -18,11 +18,14 @@ def main(argv: list[str] | None = None) -> None:
     )
     parser.add_argument("checkpoint")
     parser.add_argument("-o", "--output", help="ONNX file (default: next to the checkpoint, same name .onnx)")
+    parser.add_argument("--force", action="store_true", help="replace an existing --output file")
     parser.add_argument("-v", "--verbose", action="store_true", help="print torch's export messages and tracebacks")
     args = parser.parse_args(argv)
     output = args.output or os.path.splitext(args.checkpoint)[0] + ".onnx"
     if os.path.isdir(output):
         raise SystemExit(f"{PROG}: --output {output} is a folder; give a file name such as {output}/policy.onnx.")
+    if os.path.exists(output) and not args.force:
+        raise SystemExit(f"{PROG}: {output} exists; give another -o, or --force to replace it.")
     try:
         export(args.checkpoint, output, args.verbose)
     except (ValueError, FileNotFoundError, RuntimeError) as error:

@@ -43,6 +43,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--push-every", type=float, metavar="S",
                         help="push every S seconds (default: the evaluation preset's; 0: only on key press)")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("-v", "--verbose", action="store_true", help="print error tracebacks")
     return parser
 
 
@@ -70,7 +71,9 @@ def main(argv: list[str] | None = None) -> None:
             print(f"pchc-play: wrote {path}")
         else:
             watch_checkpoint(args.checkpoint, preferences[0], args)
-    except RenderingUnavailable as error:
+    except (RenderingUnavailable, ValueError, FileNotFoundError) as error:
+        if args.verbose:
+            raise
         raise SystemExit(f"pchc-play: {error}") from None
 
 

@@ -55,8 +55,8 @@ def build_parser(task_help: str = "") -> argparse.ArgumentParser:
     parser.add_argument("--logger", choices=sorted(LOGGERS), help="where training scalars go (default: tensorboard)")
     parser.add_argument("--logger-project", metavar="NAME", help="W&B / Neptune project (default: the experiment)")
     parser.add_argument("--resume", metavar="CKPT",
-                        help="continue this checkpoint in a new run folder, with its config; flags and KEY=VALUE "
-                        "given here override it")
+                        help="continue this checkpoint (or a run folder's latest) in a new run folder, with its "
+                        "config; flags and KEY=VALUE given here override it")
     parser.add_argument("--init-from", metavar="CKPT",
                         help="a new run of --task's config (with flags and KEY=VALUE) whose networks start from "
                         "this checkpoint's weights (actor, critics, AMP discriminator): fine-tuning after a reward "
@@ -108,6 +108,14 @@ def resolve(args) -> tuple:
     if args.resume and args.init_from:
         raise ValueError("give --resume (continue a run with its config) or --init-from (a new run starting from its "
                          "weights), not both.")
+    if args.resume and os.path.isdir(args.resume):  # a run folder: its latest checkpoint, as legged_gym does
+        from pchc_rsl.cli.run_folder import checkpoints_in
+
+        found = checkpoints_in(args.resume)
+        if not found:
+            raise ValueError(f"--resume {args.resume}: the folder holds no model_<it>.pt checkpoint.")
+        args.resume = found[-1]
+        notes.append(f"--resume of a folder: its latest checkpoint, {args.resume}")
     if args.resume:
         saved = saved_config(args.resume, load_checkpoint(args.resume))
         if args.task is not None and args.task != saved["task"]:
@@ -184,6 +192,7 @@ def train(cfg, config: dict, log_dir: str, args) -> None:
 
     created = first_missing_folder(log_dir)
     start = time.time()
+    last = None
     _stop_on_signals()
     try:
         print(f"{PROG}: {apply_threads(cfg, args.threads)}", flush=True)
@@ -201,7 +210,7 @@ def train(cfg, config: dict, log_dir: str, args) -> None:
         remove_if_unused(log_dir, created)
         print(f"\n{PROG}: interrupted; " + (f"saved {stop.checkpoint}" if stop.checkpoint else "nothing to save."))
         if stop.checkpoint and checkpoints_in(log_dir):
-            _summary(cfg, log_dir, stop.checkpoint, start)
+            _summary(cfg, log_dir, stop.checkpoint, start, last=last)
         raise SystemExit(130) from None
     except KeyboardInterrupt:
         remove_if_unused(log_dir, created)
@@ -231,8 +240,9 @@ def _stop_on_signals() -> None:
         signal.signal(number, interrupt)
 
 
-def _summary(cfg, log_dir: str, checkpoint: str, start: float) -> None:
-    """Where everything is and what to run next, with the real paths."""
+def _summary(cfg, log_dir: str, checkpoint: str, start: float, last: int | None = None) -> None:
+    """Where everything is and what to run next, with the real paths; ``last``: the iteration the run meant to end
+    at (an interrupted run continues with what is left)."""
     from pchc_rsl.cli.run_folder import checkpoints_in
     from pchc_rsl.evaluation import TASK_EVALUATION
 
@@ -246,7 +256,11 @@ def _summary(cfg, log_dir: str, checkpoint: str, start: float) -> None:
     ]
     if cfg.name in TASK_EVALUATION:
         lines.append(f"  evaluate:     pchc-eval {q(checkpoint)} --output {q(os.path.join(log_dir, 'eval'))}")
-    lines.append(f"  continue:     pchc-train --resume {q(checkpoint)} --max-iterations {cfg.runner.max_iterations}")
+    more = cfg.runner.max_iterations
+    name = os.path.basename(checkpoint)[6:-3]
+    if last is not None and name.isdigit() and last > int(name):
+        more = last - int(name)
+    lines.append(f"  continue:     pchc-train --resume {q(checkpoint)} --max-iterations {more}")
     print("\n".join(lines))
 
 

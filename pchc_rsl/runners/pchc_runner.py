@@ -3,6 +3,7 @@ and a training loop that stops on NaN, saves on Ctrl-C and prints one line per i
 
 from __future__ import annotations
 
+import copy
 import os
 
 import numpy as np
@@ -66,12 +67,14 @@ class PCHCRunner(OnPolicyRunner):
         """The newest finite checkpoint this runner wrote or loaded."""
         self.completed_iteration: int | None = None
         """The last iteration that finished (and passed the finite check) in this process."""
+        self._completed_state: dict | None = None
+        """What a checkpoint of ``completed_iteration`` holds, copied when it finished (what Ctrl-C saves)."""
 
     # ---- training loop additions -------------------------------------------------------------------------------
 
     def learn(self, num_learning_iterations: int, init_at_random_ep_len: bool = False) -> None:
         """rsl-rl's loop, plus: raise NonFiniteTraining (nothing of the bad iteration saved) and, on Ctrl-C, save
-        the state at the interrupt and raise TrainingInterrupted."""
+        the state as it was when the last iteration finished and raise TrainingInterrupted."""
         try:
             super().learn(num_learning_iterations, init_at_random_ep_len)
         except KeyboardInterrupt:
@@ -106,15 +109,20 @@ class PCHCRunner(OnPolicyRunner):
                 self.last_good_checkpoint,
             )
         self.completed_iteration = it
+        if self.logger.log_dir is not None:  # rsl-rl saves right after this: the state a checkpoint of it holds
+            self.current_learning_iteration = it
+            self._completed_state = copy.deepcopy(self.checkpoint_contents())
 
     def _save_on_interrupt(self) -> str | None:
-        """Save the last completed iteration unless it is already saved; the path of the newest checkpoint."""
-        if self.completed_iteration is None or self.logger.log_dir is None:
+        """Save the last completed iteration as it was when it finished (not the weights, optimizer and random
+        streams part-way into the next one), unless it is already saved; the path of the newest checkpoint. A run
+        resumed from it continues exactly as the uninterrupted run did."""
+        if self.completed_iteration is None or self.logger.log_dir is None or self._completed_state is None:
             return self.last_good_checkpoint
         path = os.path.join(self.logger.log_dir, f"model_{self.completed_iteration}.pt")
         if path not in self.written:
-            self.current_learning_iteration = self.completed_iteration
-            self.save(path)
+            self._write_checkpoint(path, self._completed_state)
+            self.logger.save_model(path, self.completed_iteration)
         return path
 
     # ---- several processes -------------------------------------------------------------------------------------
@@ -135,14 +143,18 @@ class PCHCRunner(OnPolicyRunner):
 
     # ---- checkpoints -------------------------------------------------------------------------------------------
 
-    def save(self, path: str, infos: dict | None = None) -> None:
-        """Write the checkpoint atomically (temp file + rename); never replaces a file this runner did not write."""
+    def checkpoint_contents(self, infos: dict | None = None) -> dict:
+        """What a checkpoint holds now: networks, optimizer, iteration, config, random streams and env state."""
         saved = self.alg.save()
         saved["iter"] = self.current_learning_iteration
         saved["infos"] = infos
         saved["config"] = self.config
         saved["training_state"] = self.training_state()
-        self._write_checkpoint(path, saved)
+        return saved
+
+    def save(self, path: str, infos: dict | None = None) -> None:
+        """Write the checkpoint atomically (temp file + rename); never replaces a file this runner did not write."""
+        self._write_checkpoint(path, self.checkpoint_contents(infos))
         self.logger.save_model(path, self.current_learning_iteration)
 
     def _write_checkpoint(self, path: str, saved: dict) -> None:

@@ -16,20 +16,26 @@ SOLE_HALF_SIZE = (0.0935, 0.0365, 0.01)
 SOLE_CENTER = (0.0395, 0.0, -0.025)
 
 
+class G1ModelUnavailable(RuntimeError, ValueError):
+    """The G1 could not be had (offline without MENAGERIE_ROOT, or a folder without it). A ValueError too, so every
+    CLI reports it in one line like other bad input."""
+
+
 def load_g1_spec() -> mujoco.MjSpec:
-    """The 29-DoF G1 MjSpec from mujoco-menagerie; a clear error when it cannot be had offline."""
+    """The 29-DoF G1 MjSpec from mujoco-menagerie; a one-line error when it cannot be had offline."""
     try:
         import mujoco_menagerie
 
         return mujoco_menagerie.get("unitree_g1").spec("g1_mjlab")
     except Exception as error:  # noqa: BLE001 - any failure here means the model is unavailable
         hint = (
-            f"MENAGERIE_ROOT={os.environ['MENAGERIE_ROOT']} does not hold unitree_g1/g1_mjlab.xml"
+            f"MENAGERIE_ROOT={os.environ['MENAGERIE_ROOT']} holds no unitree_g1/g1_mjlab.xml"
             if "MENAGERIE_ROOT" in os.environ
-            else "without internet, set MENAGERIE_ROOT to a folder holding unitree_g1/g1_mjlab.xml "
-            "(e.g. export MENAGERIE_ROOT=$(cd ../shared/menagerie && pwd))"
+            else "mujoco-menagerie downloads it on first use, which needs internet; offline, set MENAGERIE_ROOT "
+            "to a folder holding unitree_g1/g1_mjlab.xml (a copy of mujoco-menagerie's download)"
         )
-        raise RuntimeError(f"Could not load the Unitree G1 from mujoco-menagerie ({error}); {hint}.") from error
+        reason = (str(error).strip().splitlines() or [type(error).__name__])[0][:200]
+        raise G1ModelUnavailable(f"could not load the Unitree G1 ({reason}): {hint}.") from None
 
 
 def build_g1_model(joints: list[str], timestep: float = 0.002, lean_feet: bool = True,
