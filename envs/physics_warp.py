@@ -4,7 +4,8 @@ interface (``physics.py``).
 The env reads torch views of Warp's own arrays (``wp.to_torch``: no copies), so observations and rewards stay on
 the device. Per-env physical randomisation keeps its bounded set of model variants: every model field in which the
 variants differ gets a leading batch dimension of V, and world i reads variant i mod V, as on the C backend. On a
-CUDA device the substep loop is captured once as a CUDA graph and replayed every step.
+CUDA device the substep loop is captured once as a CUDA graph, on a stream made for it (CUDA refuses to capture on
+the legacy default stream torch uses), and replayed every step.
 
 Differences from C MuJoCo: Warp computes in float32, and it does not reset a diverged world by itself (a diverged
 world shows as non-finite or absurd velocities, which the env catches and resets). A reset runs a forward pass on
@@ -28,9 +29,31 @@ except ImportError as error:  # the optional extra
         f"{mujoco.__version__}). ({error})"
     ) from None
 
-RANDOMIZED_FIELDS = ("geom_friction", "body_mass", "body_subtreemass", "body_inertia", "actuator_gainprm",
-                     "actuator_biasprm")
-"""Model fields that physical randomisation may change (g1_randomization.py); the ones that differ get batched."""
+def batchable_fields() -> list[str]:
+    """Model fields MuJoCo Warp can give a leading batch dimension (their array spec starts with '*')."""
+    import dataclasses
+
+    from mujoco_warp._src import warp_util
+
+    return [f.name for f in dataclasses.fields(mjw.Model)
+            if warp_util.is_array_spec(f.type) and getattr(f.type, "shape", ())[:1] == ("*",)]
+
+
+def differing_fields(variants: list[mujoco.MjModel]) -> list[str]:
+    """Every batchable model field in which the variants differ: what randomisation sets (friction, masses, gains)
+    and what mj_setConst derives from it (subtree masses, body_invweight0, dof_invweight0, actuator_acc0, ...). A
+    difference in a Warp model field that cannot be batched is refused: the worlds would silently share variant 0's
+    value."""
+    first = variants[0]
+    warp_fields = {f.name for f in __import__("dataclasses").fields(mjw.Model)}
+    batchable = set(batchable_fields())
+    differ = [name for name in dir(first) if not name.startswith("_") and name in warp_fields
+              and isinstance(getattr(first, name), np.ndarray)
+              and any(not np.array_equal(getattr(v, name), getattr(first, name)) for v in variants[1:])]
+    unbatchable = [name for name in differ if name not in batchable]
+    if unbatchable:
+        raise ValueError(f"model variants differ in {unbatchable}, which MuJoCo Warp cannot batch per world.")
+    return differ
 
 
 class WarpMuJoCo:
@@ -51,8 +74,8 @@ class WarpMuJoCo:
         variants = _variants(self.models)
         m = self.model
         with wp.ScopedDevice(self.wp_device):
-            batched = [name for name in RANDOMIZED_FIELDS
-                       if any(not np.array_equal(getattr(v, name), getattr(m, name)) for v in variants[1:])]
+            batched = differing_fields(variants)
+            self.batched_fields = batched
             self.wp_model = mjw.put_model(m, batch_sizes={name: len(variants) for name in batched})
             for name in batched:
                 field = wp.to_torch(getattr(self.wp_model, name))
@@ -70,6 +93,10 @@ class WarpMuJoCo:
         self.diverged = torch.zeros(num_envs, dtype=torch.bool, device=self.device)
         """Always False: Warp does not reset a diverged world (the env's NaN and velocity checks catch it)."""
         self._graph = None
+        self._capture_stream = None
+        if self.wp_device.is_cuda:
+            self._capture_stream = wp.Stream(self.wp_device)
+            wp.set_mempool_enabled(self.wp_device, True)  # a graph's allocations come from Warp's pool
         self._forward_and_record(slice(None))
 
     def _substeps(self) -> None:
@@ -86,18 +113,28 @@ class WarpMuJoCo:
         [N, K, nu] (an action delay), and ``body_forces``."""
         per_substep = wp.to_torch(self._ctrl_substeps)  # [K, N, nu]: read by each substep inside the graph
         per_substep.copy_(ctrl.permute(1, 0, 2) if ctrl.ndim == 3 else ctrl.unsqueeze(0).expand_as(per_substep))
-        with wp.ScopedDevice(self.wp_device), wp.ScopedStream(self._stream()):
-            if self._graph is not None:
-                wp.capture_launch(self._graph)
+        with wp.ScopedDevice(self.wp_device):
+            if not self.wp_device.is_cuda:
+                self._substeps()
                 return
-            self._substeps()  # eagerly: the first step on a GPU also loads every kernel before the capture
-            if self.wp_device.is_cuda:
-                with wp.ScopedCapture() as capture:  # records the next steps' work, runs nothing now
-                    self._substeps()
-                self._graph = capture.graph
+            # CUDA cannot capture on the legacy default stream, which torch uses unless told otherwise: the graph is
+            # captured on and replayed from a stream of its own, ordered after torch's work (the control copy) and
+            # before torch's next reads (observations) by explicit waits.
+            torch_stream = self._stream()
+            work = self._capture_stream
+            work.wait_stream(torch_stream)
+            with wp.ScopedStream(work, sync_enter=False):
+                if self._graph is not None:
+                    wp.capture_launch(self._graph, stream=work)
+                else:
+                    self._substeps()  # eagerly: the first step also loads every kernel before the capture
+                    with wp.ScopedCapture(device=self.wp_device, stream=work) as capture:  # records, runs nothing
+                        self._substeps()
+                    self._graph = capture.graph
+            torch_stream.wait_stream(work)
 
     def _stream(self):
-        """Torch's current stream on a GPU, so Warp's work and torch's reads of it are ordered."""
+        """Torch's current stream on a GPU, for Warp's eager work that torch's reads follow (resets)."""
         return wp.stream_from_torch(torch.cuda.current_stream(self.device)) if self.wp_device.is_cuda else None
 
     def sanitize(self, env_ids: torch.Tensor) -> None:

@@ -58,3 +58,33 @@ def test_a_world_that_cannot_start_is_one_line(tmp_path):
     assert len(lines) == 1 and "could not start the 2-process gloo world as rank 0" in lines[0], result.stderr
     assert "torchrun" in lines[0]
     assert not (tmp_path / "run").exists()
+
+
+def test_a_gpu_rank_starts_nccl_once_on_the_gpu_of_its_local_rank(monkeypatch):
+    """torchrun rank 1 of 2 on cuda:1: the device is set, then one NCCL process group starts (rsl-rl's own setup
+    started a second one, which torch refuses). CUDA and the process group are recorders: no GPU needed."""
+    import pytest
+
+    from pchc_rsl.runners import PCHCRunner
+
+    calls = []
+    monkeypatch.setenv("WORLD_SIZE", "2")
+    monkeypatch.setenv("RANK", "1")
+    monkeypatch.setenv("LOCAL_RANK", "1")
+    monkeypatch.setattr(torch.distributed, "is_available", lambda: True)
+    monkeypatch.setattr(torch.distributed, "is_initialized", lambda: any(c[0] == "init" for c in calls))
+    monkeypatch.setattr(torch.distributed, "is_nccl_available", lambda: True)
+    monkeypatch.setattr(torch.distributed, "init_process_group",
+                        lambda backend, rank, world_size: calls.append(("init", backend, rank, world_size)))
+    monkeypatch.setattr(torch.cuda, "set_device", lambda index: calls.append(("set_device", index)))
+    runner = PCHCRunner.__new__(PCHCRunner)
+    runner.device, runner.cfg = "cuda:1", {}
+    runner._configure_multi_gpu()
+    assert calls == [("set_device", 1), ("init", "nccl", 1, 2)]
+    assert runner.cfg["multi_gpu"] == {"global_rank": 1, "local_rank": 1, "world_size": 2}
+    assert runner.is_distributed and runner.gpu_local_rank == 1
+    calls.clear()
+    runner.device = "cuda:0"
+    with pytest.raises(ValueError, match="uses the GPU of its local rank, cuda:1"):
+        runner._configure_multi_gpu()
+    assert calls == []

@@ -181,3 +181,32 @@ def test_silent_task_group_leaves_the_lambda_weighted_objective_advantages(alg):
     normalised = (advantages - advantages.mean(dim=(0, 1))) / (advantages.std(dim=(0, 1)) + 1e-8)
     expected = 0.3 * normalised[..., 1] + 0.7 * normalised[..., 2]
     torch.testing.assert_close(st.advantages.squeeze(-1), expected, atol=1e-5, rtol=1e-5)
+
+
+def test_silent_groups_are_decided_over_all_ranks(alg, monkeypatch):
+    """This rank saw a zero task reward (silent here); another rank saw it vary and had a fall. Reduced over the
+    ranks (min of minima, max of maxima and of terminations), the group is not silent on either rank. The other
+    rank is played by a recorder standing in for torch.distributed.all_reduce."""
+    alg.group_min[:] = torch.tensor([0.0, -1.0, -2.0])
+    alg.group_max[:] = torch.tensor([0.0, 1.0, 2.0])
+    alg.terminated_in_rollout = False
+    assert alg.silent_groups().tolist() == [True, False, False]
+    other = {"min": torch.tensor([-0.5, -1.0, -1.0]), "max": torch.tensor([0.5, 0.5, 1.0]), "terminated": 1.0}
+    calls = []
+
+    def all_reduce(tensor, op):
+        calls.append(op)
+        if op == torch.distributed.ReduceOp.MIN:
+            tensor.copy_(torch.minimum(tensor, other["min"]))
+        elif tensor.dim() == 0:
+            tensor.copy_(torch.maximum(tensor, torch.tensor(other["terminated"])))
+        else:
+            tensor.copy_(torch.maximum(tensor, other["max"]))
+
+    monkeypatch.setattr(torch.distributed, "all_reduce", all_reduce)
+    alg.is_multi_gpu = True
+    assert alg.silent_groups().tolist() == [False, False, False]
+    assert len(calls) == 3
+    other.update(min=torch.zeros(3), max=torch.zeros(3), terminated=0.0)  # the other rank silent as well
+    alg.group_min[:], alg.group_max[:] = torch.zeros(3), torch.zeros(3)
+    assert alg.silent_groups().tolist() == [True, True, True]

@@ -12,7 +12,8 @@ pytest.importorskip("mujoco_warp", reason="the warp extra is not installed")
 
 
 def test_warp_backend_follows_c_mujoco_through_pushes_resets_and_randomisation():
-    envs = {backend: make_walk_env(num_envs=4, seed=3, physics=backend) for backend in ("mujoco", "warp")}
+    envs = {backend: make_walk_env(num_envs=4, seed=3, physics=backend, action_delay_s=(0.0, 0.0))
+            for backend in ("mujoco", "warp")}
     c, w = envs["mujoco"], envs["warp"]
     assert w.physics.device == "cpu" and w.physics.qpos.dtype == torch.float32  # Warp's own arrays, viewed
     friction = w.physics.wp_model.geom_friction
@@ -41,3 +42,116 @@ def test_warp_backend_follows_c_mujoco_through_pushes_resets_and_randomisation()
         torch.testing.assert_close(reward_w, reward_c, atol=2e-3, rtol=1e-3)
     assert (c.pushes.max_deviation[[0, 2, 3]] > 0).all()  # the pushes happened
     assert c.episode_length_buf[1] == 10 and w.episode_length_buf[1] == 10  # and the reset
+
+
+def test_every_field_in_which_the_variants_differ_is_batched_per_world():
+    """Randomised variants differ in friction, pelvis mass and gains, and mj_setConst derives more from them
+    (subtree masses, body_invweight0, dof_invweight0, actuator_acc0): each such field is batched, and the Warp
+    model's rows equal the C variants' values field by field."""
+    import numpy as np
+
+    from pchc_rsl.envs.g1_config import RandomizationConfig
+    from pchc_rsl.envs.g1_randomization import model_variants
+    from pchc_rsl.envs.physics_warp import WarpMuJoCo, differing_fields
+    from pchc_rsl.robots.g1.constants import WALK_JOINTS
+    from pchc_rsl.robots.g1.model import build_g1_model
+
+    model = build_g1_model(list(WALK_JOINTS), 0.005)
+    models = model_variants(model, RandomizationConfig(num_model_variants=3), 6, np.random.default_rng(1))
+    variants = models[:3]
+    expected = {name for name in dir(model) if not name.startswith("_")
+                and isinstance(getattr(model, name), np.ndarray)
+                and any(not np.array_equal(getattr(v, name), getattr(model, name)) for v in variants)}
+    assert {"body_invweight0", "dof_invweight0", "body_subtreemass", "geom_friction"} <= expected
+    physics = WarpMuJoCo(models, 6, 4, device="cpu")
+    assert set(physics.batched_fields) == set(differing_fields(variants))
+    import warp as wp
+
+    for name in physics.batched_fields:
+        batched = wp.to_torch(getattr(physics.wp_model, name)).numpy()
+        for index, variant in enumerate(variants):
+            np.testing.assert_allclose(batched[index].reshape(-1), getattr(variant, name).reshape(-1), rtol=1e-5,
+                                       atol=1e-6, err_msg=name)
+    assert {"body_invweight0", "dof_invweight0"} <= set(physics.batched_fields)
+
+
+def test_a_control_per_substep_reaches_the_physics_on_both_backends():
+    """An action delay hands the physics one control per substep: the old target for the first substeps, the new
+    one after. Both backends follow the same switch (and it matters: holding the new target all step differs)."""
+    from pchc_rsl.envs.physics import BatchedMuJoCo
+    from pchc_rsl.envs.physics_warp import WarpMuJoCo
+    from pchc_rsl.robots.g1.constants import WALK_JOINTS
+    from pchc_rsl.robots.g1.model import build_g1_model, default_joint_positions
+
+    model = build_g1_model(list(WALK_JOINTS), 0.005)
+    default = torch.tensor(default_joint_positions(list(WALK_JOINTS)), dtype=torch.float64)
+    qpos = torch.zeros(2, model.nq, dtype=torch.float64)
+    qpos[:, 2], qpos[:, 3] = 0.8, 1.0  # in the air: no contact, so float32 and float64 stay together
+    qpos[:, 7:] = default
+    switched = default.repeat(2, 4, 1)
+    switched[:, 2:, WALK_JOINTS.index("left_knee_joint")] += 0.5
+    results = {}
+    for name, physics in (("c", BatchedMuJoCo(model, 2, 4)), ("warp", WarpMuJoCo(model, 2, 4, device="cpu"))):
+        physics.set_qpos_qvel(torch.arange(2), qpos, torch.zeros(2, model.nv, dtype=torch.float64))
+        physics.step(switched.to(physics.qpos.dtype))
+        results[name] = physics.qpos.double().clone()
+    torch.testing.assert_close(results["warp"], results["c"], atol=1e-4, rtol=0)
+    held = BatchedMuJoCo(model, 2, 4)
+    held.set_qpos_qvel(torch.arange(2), qpos, torch.zeros(2, model.nv, dtype=torch.float64))
+    held.step(switched[:, -1])
+    assert (held.qpos - results["c"]).abs().max() > 1e-3
+
+
+def test_cuda_graph_is_captured_and_replayed_on_its_own_stream_ordered_with_torchs(monkeypatch):
+    """No GPU needed: a CPU Warp physics pretends its device is CUDA, and Warp's stream, capture and launch calls
+    are recorders. The first step captures on the stream made for it (never torch's, the legacy default stream
+    CUDA refuses), later steps replay there, and each step waits for torch's stream and makes torch wait for it."""
+    import contextlib
+
+    import warp as wp
+
+    from pchc_rsl.envs import physics_warp
+    from pchc_rsl.robots.g1.constants import WALK_JOINTS
+    from pchc_rsl.robots.g1.model import build_g1_model
+
+    physics = physics_warp.WarpMuJoCo(build_g1_model(list(WALK_JOINTS), 0.005), 2, 4, device="cpu")
+    calls = []
+
+    class Stream:
+        def __init__(self, name):
+            self.name = name
+
+        def wait_stream(self, other):
+            calls.append(("wait", self.name, other.name))
+
+    work, torch_stream = Stream("own"), Stream("torch")
+
+    class Capture:
+        def __init__(self, device=None, stream=None):
+            calls.append(("capture", stream.name))
+            self.graph = "graph"
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            return False
+
+    class Device:
+        is_cuda = True
+
+    physics.wp_device, physics._capture_stream = Device(), work
+    monkeypatch.setattr(physics, "_stream", lambda: torch_stream)
+    monkeypatch.setattr(physics, "_substeps", lambda: calls.append(("substeps",)))
+    monkeypatch.setattr(wp, "ScopedDevice", lambda device: contextlib.nullcontext())
+    monkeypatch.setattr(wp, "ScopedStream", lambda stream, sync_enter=True: (
+        calls.append(("on", stream.name)), contextlib.nullcontext())[1])
+    monkeypatch.setattr(wp, "ScopedCapture", Capture)
+    monkeypatch.setattr(wp, "capture_launch", lambda graph, stream=None: calls.append(("launch", graph, stream.name)))
+    ctrl = torch.zeros(2, physics.model.nu)
+    physics.step(ctrl)
+    assert calls == [("wait", "own", "torch"), ("on", "own"), ("substeps",), ("capture", "own"), ("substeps",),
+                     ("wait", "torch", "own")]
+    calls.clear()
+    physics.step(ctrl)
+    assert calls == [("wait", "own", "torch"), ("on", "own"), ("launch", "graph", "own"), ("wait", "torch", "own")]

@@ -84,11 +84,17 @@ class MultiCriticPPO(PPO):
         terminated (time-outs are bootstrapped, so every return is c / (1 - gamma)); a nonzero constant with
         terminations is a survival signal and is kept.
         """
-        span = self.group_max - self.group_min  # inf before the first recorded step: nothing is silent then
-        scale = torch.maximum(self.group_max.abs(), self.group_min.abs()).clamp(min=1.0)
+        low, high = self.group_min.clone(), self.group_max.clone()
+        terminated = torch.tensor(float(self.terminated_in_rollout), device=self.device)
+        if self.is_multi_gpu:  # every rank must drop the same groups, or their averaged gradients mix objectives
+            torch.distributed.all_reduce(low, op=torch.distributed.ReduceOp.MIN)
+            torch.distributed.all_reduce(high, op=torch.distributed.ReduceOp.MAX)
+            torch.distributed.all_reduce(terminated, op=torch.distributed.ReduceOp.MAX)
+        span = high - low  # inf before the first recorded step: nothing is silent then
+        scale = torch.maximum(high.abs(), low.abs()).clamp(min=1.0)
         constant = torch.isfinite(span) & (span <= 1e-6 * scale)
-        zero = self.group_max.abs() <= 1e-12
-        return constant & (zero | (not self.terminated_in_rollout))
+        zero = high.abs() <= 1e-12
+        return constant & (zero | (terminated == 0))
 
     def act(self, obs: TensorDict) -> torch.Tensor:
         actions = super().act(obs)

@@ -128,18 +128,23 @@ class PCHCRunner(OnPolicyRunner):
     # ---- several processes -------------------------------------------------------------------------------------
 
     def _configure_multi_gpu(self) -> None:
-        """rsl-rl's multi-GPU setup (NCCL, one GPU per rank); on the CPU the same scheme over Gloo."""
+        """rsl-rl's multi-GPU scheme (one process per GPU, ``cuda:LOCAL_RANK``, NCCL), or the same over Gloo on
+        CPUs. Written out here rather than calling rsl-rl's, which would start the process group a second time
+        ("trying to initialize the default process group twice") after ours gave its one-line error check."""
         world_size, rank, local_rank = world()
-        if world_size > 1 and torch.device(self.device).type == "cuda":
-            init_process_group("nccl", rank, world_size)  # a one-line error when NCCL cannot start
-            return super()._configure_multi_gpu()
         self.gpu_world_size, self.gpu_global_rank, self.gpu_local_rank = world_size, rank, local_rank
         self.is_distributed = world_size > 1
         if not self.is_distributed:
             self.cfg["multi_gpu"] = None
             return
         self.cfg["multi_gpu"] = {"global_rank": rank, "local_rank": local_rank, "world_size": world_size}
-        init_process_group("gloo", rank, world_size)
+        cuda = torch.device(self.device).type == "cuda"
+        if cuda:
+            if torch.device(self.device) != torch.device(f"cuda:{local_rank}"):
+                raise ValueError(f"rank {rank} trains on {self.device}, but a torchrun process uses the GPU of its "
+                                 f"local rank, cuda:{local_rank}; pass --device cuda and each rank takes its own.")
+            torch.cuda.set_device(local_rank)  # before NCCL starts, so its communicator binds this GPU
+        init_process_group("nccl" if cuda else "gloo", rank, world_size)
 
     # ---- checkpoints -------------------------------------------------------------------------------------------
 
