@@ -325,12 +325,16 @@ def test_threads_are_set_for_torch_and_the_physics_and_printed(tmp_path, capsys)
         cfg = task_config("g1-walk-fast")
         line = apply_threads(cfg, 1)
         assert torch.get_num_threads() == 1 and cfg.env.num_threads == 1
-        assert line.startswith(f"threads: 1 of {available_cores()} cores (MuJoCo physics")
+        assert line.startswith("threads: 1 MuJoCo physics while collecting, 1 torch while learning, of ")
+        # the default: the physics on every core, torch on one (small networks; spinning OpenMP threads otherwise)
+        line = apply_threads(cfg, None)
+        assert cfg.env.num_threads == available_cores() and torch.get_num_threads() == 1
+        assert line.startswith(f"threads: {available_cores()} MuJoCo physics while collecting, 1 torch")
         toy = task_config("toy")
-        assert "torch threads" in apply_threads(toy, None) and torch.get_num_threads() == available_cores()
+        assert apply_threads(toy, None).startswith("threads: 1 torch") and torch.get_num_threads() == 1
         assert "expect slowdowns" in apply_threads(toy, available_cores() + 1)
         train_cli.main(["--task", "toy", "--max-iterations", "1", "--threads", "1", "--log-dir", str(tmp_path / "r")])
-        assert f"threads: 1 of {available_cores()} cores" in capsys.readouterr().out
+        assert f"threads: 1 torch, of {available_cores()} cores" in capsys.readouterr().out
     finally:
         torch.set_num_threads(previous)
 
