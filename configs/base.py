@@ -62,7 +62,8 @@ class AlgorithmConfig:
     learning_rate: float = 1e-3
     max_grad_norm: float = 1.0
     use_clipped_value_loss: bool = True
-    """rsl-rl's value clipping (by clip_param, in return units): slows critics whose returns are large."""
+    """rsl-rl's value clipping by clip_param, applied to the critics' outputs: in the value normaliser's units
+    (returns over their running std) when value normalisation is on, as it is by default; in return units without."""
     schedule: str = "adaptive"
     desired_kl: float = 0.01
     reward_group_names: list[str] | None = None
