@@ -96,6 +96,20 @@ def bare_physics_rate(env, steps: int, threads: int) -> float:
     return stepping_rate(bare, [ctrl] * steps)
 
 
+def count_syncs(runner) -> int:
+    """Host syncs torch reports in one iteration (rollout and update), from its sync debug mode's warnings."""
+    import warnings
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        torch.cuda.set_sync_debug_mode("warn")
+        try:
+            timed_iteration(runner)
+        finally:
+            torch.cuda.set_sync_debug_mode("default")
+    return sum("synchroniz" in str(w.message) for w in caught)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--task", default="g1-walk-fast")
@@ -106,6 +120,8 @@ def main() -> None:
     parser.add_argument("--physics", choices=["mujoco", "warp"], default="mujoco")
     parser.add_argument("--motion-files", nargs="+", metavar="PATH",
                         help="AMP reference motions, as in training (without them the AMP update is not timed)")
+    parser.add_argument("--sync-debug", action="store_true",
+                        help="on CUDA: also count the host syncs of one more iteration (torch's sync debug mode)")
     parser.add_argument("--configs", nargs="+", default=[""], metavar="'KEY=VALUE ...'",
                         help="config variants timed side by side, each a space-separated list of overrides ('' = "
                         "the task's), e.g. '' 'runner.algorithm.num_learning_epochs=2'")
@@ -136,6 +152,8 @@ def main() -> None:
             replay = replay_rate(runner.env, record, args.threads)
             standing = bare_physics_rate(runner.env, cfg.runner.num_steps_per_env, args.threads)
             loop = steps / (collect + learn)
+            if args.sync_debug and torch.device(args.device).type == "cuda":
+                print(f"{n:>6}  host syncs in one iteration ({steps} env steps): {count_syncs(runner)}", flush=True)
             print(f"{n:>6}{collect:>11.2f}{learn:>9.2f}{steps / collect:>11.0f}{loop:>9.0f}{standing:>12.0f}"
                   f"{replay:>10.0f}{loop / standing:>15.2f}{loop / replay:>13.2f}  {overrides or 'task default'}",
                   flush=True)
