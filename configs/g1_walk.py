@@ -15,9 +15,10 @@ def walk_rewards() -> list[RewardTerm]:
     config/g1/env_cfgs.py): tracking weighted 2.0 (std 0.5 and sqrt(0.5)), foot clearance -2.0. mjlab's upright and
     posture terms reward staying up; ``alive`` stands in for them here.
 
-    Gait terms (the shipped walker tapped its feet 4-10 times a second): legged_gym's air-time term, which charges
-    every swing shorter than 0.3 s and pays longer ones up to 0.5 s, and unitree_rl_gym's G1 hip_pos penalty on hip
-    roll and yaw against straddling. Objectives are the paper's equations: r_stride read per stance step (see
+    Gait terms (the shipped walker hopped, both feet leaving the ground together 4-10 times a second): legged_gym's
+    air-time term, which charges every swing shorter than 0.3 s and pays longer ones up to 0.5 s, a single-stance
+    term that pays the feet taking turns, and unitree_rl_gym's G1 hip_pos penalty on hip roll and yaw against
+    straddling. Objectives are the paper's equations: r_stride read per stance step (see
     g1_rewards.stride), r_disturb with a fall costing 5 (a fall ends the episode, which without it ends r_disturb's
     cost too, so falling was the cheapest answer to a strong push at the disturbance end)."""
     return [
@@ -27,7 +28,8 @@ def walk_rewards() -> list[RewardTerm]:
         RewardTerm(R + "base_height", -10.0, params={"target": 0.74}),
         RewardTerm(R + "feet_slip", -0.1),
         RewardTerm(R + "feet_clearance", -2.0, params={"target_height": 0.1}),
-        RewardTerm(R + "feet_air_time", 3.0, params={"threshold": 0.3, "max_air": 0.5}),
+        RewardTerm(R + "feet_air_time", 5.0, params={"threshold": 0.3, "max_air": 0.5}),
+        RewardTerm(R + "single_stance", 2.0),
         RewardTerm(R + "joint_deviation", -1.0, params={"joints": ["hip_roll", "hip_yaw"]}),
         RewardTerm(R + "joint_limits", -5.0),
         RewardTerm(R + "torques", -1e-5),

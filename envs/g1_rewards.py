@@ -37,6 +37,14 @@ def feet_air_time(env, threshold: float, max_air: float | None = None) -> torch.
     return ((air - threshold) * env.feet.first_contact).sum(-1) * moving
 
 
+def single_stance(env, min_command: float = 0.1) -> torch.Tensor:
+    """1 while exactly one foot is on the ground and a speed of at least ``min_command`` is commanded (legged_gym's
+    biped no-fly term): pays walking, in which the feet take turns, and neither hopping (both feet leave the
+    ground together, as the shipped walker did) nor shuffling in double support."""
+    moving = env.commands[:, :2].norm(dim=-1) >= min_command
+    return (env.feet.contact.sum(-1) == 1).float() * moving
+
+
 def joint_deviation(env, joints: list[str]) -> torch.Tensor:
     """sum_j (q_j - q_default_j)^2 over the env's joints whose names contain one of ``joints`` (e.g. "hip_roll"):
     unitree_rl_gym's G1 hip_pos term, which keeps the legs from splaying into a straddle."""

@@ -369,3 +369,12 @@ def test_gait_metrics_of_a_scripted_walk_and_of_backward_side_taps():
     counts[0, 0], counts[0, 1], counts[0, 4] = 2, 1, 1
     medians = median_from_histogram(counts, 0.02)
     assert medians[0].item() == pytest.approx(0.02) and math.isnan(medians[1].item())
+
+
+def test_single_stance_pays_walking_not_hopping_shuffling_or_standing():
+    from pchc_rsl.envs import g1_rewards
+
+    env = make_walk_env(num_envs=4)
+    env.feet.contact[:] = torch.tensor([[True, False], [False, False], [True, True], [False, True]])
+    env.commands[:] = torch.tensor([[0.5, 0, 0], [0.5, 0, 0], [0.5, 0, 0], [0.0, 0, 0]])
+    assert g1_rewards.single_stance(env).tolist() == [1.0, 0.0, 0.0, 0.0]
