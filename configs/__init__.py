@@ -33,7 +33,11 @@ TASKS: dict[str, Callable[[], TaskConfig]] = {
 def task_config(name: str) -> TaskConfig:
     """A fresh config for task ``name``; unknown names list the known ones."""
     if name not in TASKS:
-        raise ValueError(f"Unknown task '{name}'. Known tasks: {', '.join(sorted(TASKS))}.")
+        import difflib
+
+        close = difflib.get_close_matches(str(name), list(TASKS), n=1, cutoff=0.6)
+        hint = f" Did you mean '{close[0]}'?" if close else ""
+        raise ValueError(f"Unknown task '{name}'.{hint} Known tasks: {', '.join(sorted(TASKS))}.")
     return TASKS[name]()
 
 

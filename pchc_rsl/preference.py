@@ -45,23 +45,31 @@ def sample_preferences(
     return lam.to(device)
 
 
+def _shown(values) -> str:
+    """Numbers as a user typed them (0.3, not float32's 0.30000001192092896)."""
+    if isinstance(values, list):
+        return "[" + ", ".join(_shown(v) for v in values) + "]"
+    return f"{values:.6g}"
+
+
 def validate_preference(lam: torch.Tensor | Sequence[float], num_objectives: int) -> torch.Tensor:
     """Check that ``lam`` ([m] or [N, m]) lies on the simplex; return it as a float tensor or raise ValueError."""
     t = torch.as_tensor(lam, dtype=torch.float32)
     if t.dim() not in (1, 2) or t.shape[-1] != num_objectives:
         raise ValueError(
-            f"A preference must have shape [{num_objectives}] or [N, {num_objectives}] (one weight per objective), "
-            f"got shape {list(t.shape)}: {t.tolist()}."
+            f"A preference has one weight per objective ({num_objectives} here, e.g. "
+            f"{_shown([1 / num_objectives] * num_objectives)}), got {t.shape[-1] if t.dim() else 1}: "
+            f"{_shown(t.tolist())}."
         )
     if not torch.isfinite(t).all():
-        raise ValueError(f"A preference must be finite, got {t.tolist()} (NaN or inf).")
+        raise ValueError(f"A preference must be finite, got {_shown(t.tolist())} (NaN or inf).")
     if (t < 0).any():
-        raise ValueError(f"Preference weights must be >= 0, got {t.tolist()}.")
+        raise ValueError(f"Preference weights must be >= 0, got {_shown(t.tolist())}.")
     sums = t.sum(dim=-1)
     if ((sums - 1.0).abs() > SUM_TOLERANCE).any():
         raise ValueError(
-            f"Preference weights must sum to 1 (within {SUM_TOLERANCE}), got sums {sums.tolist()} for {t.tolist()}; "
-            "divide by the sum to normalise."
+            f"Preference weights must sum to 1 (within {SUM_TOLERANCE:g}), got a sum of {_shown(sums.tolist())} for "
+            f"{_shown(t.tolist())}; divide by the sum to normalise."
         )
     return t
 

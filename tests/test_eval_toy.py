@@ -83,7 +83,7 @@ def test_a_fixed_preference_checkpoint_is_evaluated_at_its_own_preference_only(t
     (["--episode-length", "nan"], "--episode-length: must be a finite number > 0"),
     (["--preferences", "1"], "--preferences: must be a whole number >= 2"),
     (["--preference", "0.5,0.6"], "--preference 0.5,0.6: Preference weights must sum to 1"),
-    (["--preference", "1,0,0"], "--preference 1,0,0: A preference must have shape [2]"),
+    (["--preference", "1,0,0"], "--preference 1,0,0: A preference has one weight per objective (2 here"),
     (["--preference", "a,b"], "--preference: must be comma-separated numbers"),
     (["--switch"], "--switch measures falls"),
 ])

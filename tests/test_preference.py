@@ -32,7 +32,7 @@ def test_samples_are_reproducible_with_a_generator():
 @pytest.mark.parametrize(
     "lam, message",
     [
-        ([0.5, 0.5, 0.0], "shape"),
+        ([0.5, 0.5, 0.0], "one weight per objective"),
         ([1.2, -0.2], ">= 0"),
         ([0.5, 0.6], "sum to 1"),
         ([float("nan"), 1.0], "finite"),

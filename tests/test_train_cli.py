@@ -43,10 +43,11 @@ def one_line_exit(capsys, argv, code=None):
     (["--num-envs", "two"], "--num-envs: must be a whole number, got 'two'"),
     (["num_envs=0"], "num_envs must be a whole number >= 1, got 0"),
     (["runner.save_interval=0"], "runner.save_interval must be a whole number >= 1"),
-    (["runner.algorithm.learning_rate=nan"], "learning_rate must be a finite number > 0"),
+    (["runner.algorithm.learning_rate=nan"], "learning_rate=nan: expected float (a finite number)"),
+    (["runner.algorithm.learning_rate=-1"], "learning_rate must be a finite number > 0"),
     (["runner.algorithm.gamma=1.5"], "gamma must be in [0, 1]"),
     (["--fixed-preference", "0.5,0.6"], "sum to 1"),
-    (["--fixed-preference", "1,0,0"], "shape"),
+    (["--fixed-preference", "1,0,0"], "one weight per objective (2 here"),
     (["--device", "tpu"], "device 'tpu'"),
     (["--logger", "mlflow"], "--logger: invalid choice"),
 ])
@@ -432,3 +433,26 @@ def test_resume_a_run_folder_takes_its_latest_checkpoint(tmp_path, capsys):
     (tmp_path / "empty").mkdir()
     with pytest.raises(SystemExit, match="holds no model_<it>.pt"):
         train_cli.main(["--resume", str(tmp_path / "empty"), "--log-dir", str(tmp_path / "c")])
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--fixed-preference", "-0.5,1.5"], r"fixed preference \[-0.5, 1.5\]: Preference weights must be >= 0"),
+    (["--fixed-preference", "0.3,0.3"], r"got a sum of 0.6 for \[0.3, 0.3\]"),
+    (["num_envs=8", "--num-envs", "16"], "num_envs is given twice: --num-envs 16 and num_envs=8"),
+    (["seed=1", "seed=2"], "seed is set twice, to 1 and to 2"),
+    (["runner.algorithm.learning_rate=nan"], r"learning_rate=nan: expected float \(a finite number\)"),
+    (["env.episode_length=inf"], r"expected int"),
+])
+def test_conflicting_or_non_finite_settings_are_refused_in_one_line(argv, message, tmp_path, capsys):
+    with pytest.raises(SystemExit, match=message):
+        train_cli.main(["--task", "toy", *argv, "--log-dir", str(tmp_path / "run")])
+    assert not (tmp_path / "run").exists()
+
+
+def test_a_mistyped_task_gets_the_closest_one_and_a_fresh_run_echoes_its_overrides(tmp_path, capsys):
+    with pytest.raises(SystemExit, match="Unknown task 'toi'. Did you mean 'toy'?"):
+        train_cli.main(["--task", "toi", "--log-dir", str(tmp_path / "x")])
+    train_cli.main(["--task", "toy", "--max-iterations", "1", "runner.algorithm.learning_rate=3e-4",
+                    "--log-dir", str(tmp_path / "run")])
+    line = next(x for x in capsys.readouterr().out.splitlines() if "overrides of the task's config:" in x)
+    assert "runner.algorithm.learning_rate=0.0003" in line

@@ -7,11 +7,34 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 import sys
 
 
+NEGATIVE_VALUE = re.compile(r"^-\.?\d")
+
+
 class Parser(argparse.ArgumentParser):
-    """argparse, but an error is one line (``prog: error: ... (see --help)``) rather than usage + error."""
+    """argparse, but an error is one line (``prog: error: ... (see --help)``) rather than usage + error, and an
+    option's value may start with a minus (``--fixed-preference -0.5,1.5`` is read as the value, so that the
+    simplex check can say what is wrong with it, instead of argparse's 'expected one argument')."""
+
+    def parse_known_args(self, args=None, namespace=None):
+        args = list(sys.argv[1:] if args is None else args)
+        joined = []
+        for word in args:
+            previous = joined[-1] if joined else ""
+            takes_value = previous.startswith("--") and "=" not in previous and self._takes_value(previous)
+            if takes_value and NEGATIVE_VALUE.match(word):
+                joined[-1] = f"{previous}={word}"
+            else:
+                joined.append(word)
+        return super().parse_known_args(joined, namespace)
+
+    def _takes_value(self, option: str) -> bool:
+        action = self._option_string_actions.get(option)
+        return action is not None and action.nargs is None and action.const is None and not isinstance(
+            action, (argparse._StoreTrueAction, argparse._StoreFalseAction, argparse._HelpAction))
 
     def error(self, message: str):
         sys.stderr.write(f"{self.prog}: error: {message} (see {self.prog} --help)\n")

@@ -14,6 +14,7 @@ import ast
 import dataclasses
 import difflib
 import json
+import math
 import types
 import typing
 from typing import Any, Union
@@ -26,13 +27,18 @@ class OverrideError(ValueError):
 
 
 def apply_overrides(cfg: Any, overrides: list[str]) -> list[str]:
-    """Set each ``key=value`` on ``cfg`` in order. Returns them as ``key=value`` with the parsed values."""
+    """Set each ``key=value`` on ``cfg`` in order. Returns them as ``key=value`` with the parsed values. A key given
+    twice with different values is refused (which one was meant?)."""
     applied = []
+    seen: dict[str, str] = {}
     for item in overrides:
         key, sep, text = item.partition("=")
         key = key.strip()
         if not sep or not key:
             raise OverrideError(f"'{item}' is not a KEY=VALUE override (e.g. runner.algorithm.learning_rate=3e-4).")
+        if key in seen and seen[key] != text:
+            raise OverrideError(f"{key} is set twice, to {seen[key]} and to {text}; give it once.")
+        seen[key] = text
         value = set_value(cfg, key, text)
         applied.append(f"{key}={json.dumps(value)}")
     return applied
@@ -168,7 +174,10 @@ def _coerce(value: Any, hint: Any, current: Any) -> Any:
     if hint is float:
         if isinstance(value, bool):
             raise ValueError("")
-        return float(value)
+        number = float(value)
+        if not math.isfinite(number):  # nan and inf would only fail later, deep inside the physics or rsl-rl
+            raise ValueError("a finite number")
+        return number
     if hint is str:
         if not isinstance(value, str):
             raise ValueError("")

@@ -89,6 +89,8 @@ def main(argv: list[str] | None = None) -> None:
         if args.verbose:
             raise
         raise SystemExit(f"{PROG}: {error}") from None
+    if not args.resume and config["overrides"]:  # a resumed run lists them in its 'continuing' note
+        notes.append("overrides of the task's config: " + " ".join(config["overrides"]))
     for note in notes:
         print(f"{PROG}: {note}")
     train(cfg, config, log_dir, args)
@@ -148,6 +150,10 @@ def resolve(args) -> tuple:
         cfg.runner.algorithm.amp_cfg.motion_files = list(args.motion_files)
     for item in flags:
         key, _, text = item.partition("=")
+        given = [o for o in args.overrides if o.partition("=")[0].strip() == key]
+        if given:  # e.g. --num-envs 16 with num_envs=8
+            flag = "--" + key.rsplit(".", 1)[-1].replace("_", "-")
+            raise ValueError(f"{key} is given twice: {flag} {text} and {given[0]}; give it once.")
         set_value(cfg, key, text)
     apply_overrides(cfg, args.overrides)
     if args.fixed_preference is not None:
