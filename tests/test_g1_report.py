@@ -121,3 +121,30 @@ def test_training_line_says_where_the_evaluated_checkpoint_sits_on_longer_runs(t
     torch.save({"iter": 14, "config": {"num_envs": 4, "runner": {"num_steps_per_env": 10}}}, last)
     assert "taken at" not in g1_report.training_summary(runs, ["Train/mean_reward"], str(tmp_path / "d.png"),
                                                         str(last))[0]
+
+
+def test_sections_whose_inputs_are_not_given_are_kept_and_fewer_episodes_need_force(tmp_path):
+    """Rewriting only the fall-recovery section keeps the walking section and its training curves word for word;
+    a walking section made from 256 episodes is not replaced by one from 4 unless --force."""
+    docs = tmp_path / "docs"
+    walk_metrics = [{"stride_length": s, "push_deviation": s, "fall_rate": 0.0} for s in [0.4, 0.5, 0.6, 0.7, 0.8]]
+    walk = write_results(tmp_path / "walk", walk_metrics, switching={"falls": 0, "settle_time_s": 1.0})
+    path = g1_report.main(["--walk", walk, "--docs", str(docs)])
+    text = open(path).read()
+    walking = text[text.index("## Walking"):]
+    with open(path, "a") as f:  # as if it had training curves and a claim (d) section from an earlier report
+        f.write("\n### Training\n\nwalk-a, 2.3 hours\n\n## Claim (d): one PCHC walker against fixed-preference "
+                "walkers, same budget each\n\nfixed walkers here\n")
+    fall_metrics = [{"mild/success": 90, "strong/success": s, "energy_overall": e, "mild/com_displacement": 1.0}
+                    for s, e in zip([60, 70, 80, 85, 92], [400, 450, 500, 550, 600])]
+    fall = write_results(tmp_path / "fall", fall_metrics)
+    text = open(g1_report.main(["--fall", fall, "--docs", str(docs)])).read()
+    assert walking.strip() in text and "walk-a, 2.3 hours" in text and "fixed walkers here" in text
+    assert "## Fall recovery from prone (Table I)" in text
+    few = write_results(tmp_path / "few", walk_metrics, episodes=4)
+    import pytest
+
+    with pytest.raises(SystemExit, match="made from 256 episodes per preference"):
+        g1_report.main(["--walk", few, "--docs", str(docs)])
+    assert open(path).read() == text
+    assert "episodes per preference: 4" in open(g1_report.main(["--walk", few, "--docs", str(docs), "--force"])).read()

@@ -1,4 +1,4 @@
-"""docs/results/g1.md: the G1 policies against the paper's Table I and II and against issue 14's targets.
+"""docs/results/g1.md: the G1 policies against the paper's Table I and II and against the retraining targets.
 
     pchc-eval policies/g1_walk.pt --num-envs 128 --episodes 2 --switch --output EVAL/walk
     pchc-eval policies/g1_fall_recovery.pt --num-envs 128 --episodes 2 --output EVAL/fall
@@ -8,9 +8,10 @@
 Each table puts our figure (mean with its 95% interval) beside the paper's at the same preference. The targets are
 checked on the figures, not asserted: the report says which hold and by how much the others miss. Training curves
 (reward, falls / success against env steps and hours) come from the runs' TensorBoard events when given. The text
-above the marker line of an existing g1.md is kept; everything below it is rewritten. --claim-d takes a pchc-eval
-folder of a PCHC walker (first checkpoint) and fixed-preference walkers (pchc-train --fixed-preference) and puts
-each fixed one beside PCHC at its preference.
+above the marker line of an existing g1.md is kept; below it, the sections (and training curves) whose inputs are
+given are rewritten and the others kept, and a section made from more episodes per preference is only replaced
+with --force. --claim-d takes a pchc-eval folder of a PCHC walker (first checkpoint) and fixed-preference walkers
+(pchc-train --fixed-preference) and puts each fixed one beside PCHC at its preference.
 """
 
 from __future__ import annotations
@@ -55,6 +56,50 @@ def kept_text(path: str) -> str:
         if GENERATED_MARKER in text:
             return text[: text.index(GENERATED_MARKER)].rstrip()
     return "# G1: the trained PCHC policies against the paper"
+
+
+def generated_sections(path: str) -> dict[str, str]:
+    """The generated part of an existing g1.md by its '## ' titles (title -> the section's lines after it)."""
+    if not os.path.exists(path):
+        return {}
+    with open(path) as f:
+        text = f.read()
+    if GENERATED_MARKER not in text:
+        return {}
+    sections, title = {}, None
+    for line in text.split(GENERATED_MARKER, 1)[1].splitlines():
+        if line.startswith("## "):
+            title = line[3:].strip()
+            sections[title] = []
+        elif title is not None:
+            sections[title].append(line)
+    return {k: "\n".join(v).strip("\n") for k, v in sections.items()}
+
+
+def subsection(text: str, title: str) -> str | None:
+    """A '### title' subsection of a section's text, up to the next '###' heading; None without it."""
+    lines, inside, out = text.splitlines(), False, []
+    for line in lines:
+        if line.startswith("### "):
+            inside = line[4:].strip() == title
+            if inside:
+                out.append(line)
+            continue
+        if inside:
+            out.append(line)
+    return "\n".join(out).strip("\n") or None
+
+
+EPISODES_NOTE = "<!-- episodes per preference: {} -->"
+
+
+def episodes_of(text: str) -> int | None:
+    """The episode count a section recorded (EPISODES_NOTE), None for sections written before it was recorded."""
+    prefix = EPISODES_NOTE.split("{}")[0]
+    for line in text.splitlines():
+        if line.startswith(prefix):
+            return int(line[len(prefix):].split()[0])
+    return None
 
 
 def load_results(folder: str) -> dict:
@@ -247,11 +292,14 @@ def main(argv: list[str] | None = None) -> str:
     parser.add_argument("--claim-d", help="pchc-eval output folder of a PCHC walker (first) and fixed-preference "
                         "walkers trained for as many env steps")
     parser.add_argument("--docs", default="docs/results")
+    parser.add_argument("--force", action="store_true",
+                        help="replace a section made from more episodes per preference than the new results have")
     args = parser.parse_args(argv)
     if not (args.walk or args.fall or args.claim_d):
         raise SystemExit("g1_report: give --walk, --fall and/or --claim-d (pchc-eval output folders).")
     os.makedirs(args.docs, exist_ok=True)
     path = os.path.join(args.docs, "g1.md")
+    previous = generated_sections(path)  # a section (or its training curves) whose inputs are not given is kept
     out = [kept_text(path), "", GENERATED_MARKER, ""]
     sections = [("Walking (Table II)", args.walk, walk_section, args.walk_runs, "g1_walk",
                  ["Train/mean_reward", "Episode_Termination/fall"]),
@@ -259,12 +307,19 @@ def main(argv: list[str] | None = None) -> str:
                  ["Train/mean_reward", "Metrics/success", "Curriculum/assist_level", "Curriculum/action_scale"])]
     for title, folder, section, runs, stem, tags in sections:
         if not folder:
+            if title in previous:
+                out += [f"## {title}", "", previous[title], ""]
             continue
         results = load_results(folder)
+        episodes = min(row.get("episodes", 0) for row in results["results"][0]["rows"])
+        before = episodes_of(previous.get(title, ""))
+        if before is not None and episodes < before and not args.force:
+            raise SystemExit(f"g1_report: {path}'s '{title}' was made from {before} episodes per preference, "
+                             f"{folder} has {episodes}; pass --force to replace it, or --docs a new folder.")
         table, targets = section(results)
-        out += [f"## {title}", "", f"Evaluated with `pchc-eval` (seed {results['seed']}): no randomisation, no "
+        out += [f"## {title}", "", EPISODES_NOTE.format(episodes), f"Evaluated with `pchc-eval` (seed {results['seed']}): no randomisation, no "
                 "observation noise, the paper's pushes. Our figure is the mean with its 95% interval (t for "
-                "measured quantities, Wilson for rates).", "", *table, "", "### Targets (issue 14)", "",
+                "measured quantities, Wilson for rates).", "", *table, "", "### Targets", "",
                 *targets_table(targets), ""]
         for plot, caption in (("pareto.png", "Pareto front"), ("switching.png", "Switching lambda mid-episode"),
                               ("energy_curve.png", "Energy per step")):
@@ -276,6 +331,11 @@ def main(argv: list[str] | None = None) -> str:
             out += ["### Training", "", *training_summary(runs, tags, os.path.join(args.docs, curves),
                                                        results["results"][0].get("checkpoint")), "",
                     f"![Training curves]({curves})", ""]
+        elif subsection(previous.get(title, ""), "Training"):
+            out += [subsection(previous[title], "Training"), ""]
+    claim_title = "Claim (d): one PCHC walker against fixed-preference walkers, same budget each"
+    if not args.claim_d and claim_title in previous:
+        out += [f"## {claim_title}", "", previous[claim_title], ""]
     if args.claim_d:
         results = load_results(args.claim_d)
         out += ["## Claim (d): one PCHC walker against fixed-preference walkers, same budget each", "",
