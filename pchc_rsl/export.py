@@ -101,7 +101,16 @@ class OnnxPolicy:
         if num_threads is not None:
             options.intra_op_num_threads = num_threads
             options.inter_op_num_threads = 1
-        self.session = ort.InferenceSession(path, options, providers=["CPUExecutionProvider"])
+        with open(path, "rb") as f:
+            magic = f.read(2)
+        if magic == b"PK":  # a zip archive: what torch.save writes
+            raise ValueError(f"{path} is a PyTorch checkpoint, not an ONNX file; export it first: pchc-export-onnx "
+                             f"{path} -o policy.onnx")
+        try:
+            self.session = ort.InferenceSession(path, options, providers=["CPUExecutionProvider"])
+        except Exception as error:  # noqa: BLE001 - onnxruntime's INVALID_PROTOBUF and friends
+            reason = (str(error).strip().splitlines() or [type(error).__name__])[0][:160]
+            raise ValueError(f"{path} is not a readable ONNX file (truncated or another format?): {reason}") from None
         inputs = {i.name: i.shape for i in self.session.get_inputs()}
         if set(inputs) != {"obs", "preference"}:
             raise ValueError(f"{path} has inputs {list(inputs)}; a PCHC policy has 'obs' and 'preference'.")

@@ -252,7 +252,7 @@ def test_export_cli_is_quiet_and_its_file_is_self_contained(gated_run, tmp_path,
 @pytest.mark.parametrize("content, message", [
     (b"", "is empty (0 bytes)"),
     (None, "is truncated or is not a PyTorch checkpoint"),
-    (b"not a checkpoint at all\n", "cannot be read as a PyTorch checkpoint"),
+    (b"not a checkpoint at all\n", "is damaged or truncated, or not a PyTorch checkpoint"),
     ("tensor", "not an rsl-rl checkpoint"),
 ])
 def test_bad_checkpoint_files_give_one_line_naming_the_file(gated_run, tmp_path, capsys, content, message):

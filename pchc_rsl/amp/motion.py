@@ -46,11 +46,12 @@ def _read_csv(path: Path) -> tuple[float, list[str], np.ndarray]:
     """(fps, joint names, joint positions [T, 29]) of a LAFAN1 G1 retargeting CSV."""
     try:
         data = np.loadtxt(path, delimiter=",", dtype=np.float64, ndmin=2)
-    except ValueError as error:
+    except ValueError as error:  # numpy's text ends with advice about its own arguments (usecols): keep the fact
+        fact = str(error).strip().splitlines()[0].split(";")[0] if str(error).strip() else type(error).__name__
         raise ValueError(
             f"{path}: cannot parse as a LAFAN1 G1 CSV (comma-separated numbers, no header, {CSV_NUM_COLUMNS} "
-            f"columns): {error}"
-        ) from error
+            f"columns on every row; a truncated file?): {fact}."
+        ) from None
     if data.shape[0] == 0:
         raise ValueError(f"{path}: the CSV holds no frames.")
     if data.shape[1] != CSV_NUM_COLUMNS:
@@ -149,7 +150,8 @@ def load_motion(
         raise ValueError(f"joint_names is empty; choose some of the clip's joints {names}.")
     unknown = [name for name in joint_names if name not in names]
     if unknown:
-        raise ValueError(f"{path}: unknown joint name(s) {unknown}; the clip has joints {names}.")
+        raise ValueError(f"{path}: the task needs joint(s) {unknown}, which the clip does not have; the clip's "
+                         f"joints are {names}.")
     columns = [names.index(name) for name in joint_names]
     selected = positions[:, columns]
 

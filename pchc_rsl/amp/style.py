@@ -44,7 +44,10 @@ class AMPStyle:
         self.scale, self.grad_penalty_coef = style_reward_scale, grad_penalty_coef
         self.num_updates, self.batch_size = num_updates, batch_size
         self.obs_group = obs_group
-        print(f"AMP: {len(clips)} clip(s), {self.reference.num_windows} reference windows, c = {style_reward_scale}")
+        frames = sum(len(clip) for clip in clips)
+        self.summary = (f"AMP: {len(clips)} clip(s), {frames} frames at {fps:g} fps, {self.reference.num_windows} "
+                        f"reference windows of {window}, style reward scale {style_reward_scale:g}")
+        """One line for the user: what the style reward was given."""
 
     def reward(self, windows: torch.Tensor) -> torch.Tensor:
         """[N] style reward of the policy windows [N, window * joints]; they are kept for the discriminator."""

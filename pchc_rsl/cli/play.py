@@ -199,6 +199,7 @@ def tile_label(env, i: int, falls: int) -> list[str]:
 # ---------------------------------------------------------------------------- video
 def record_checkpoint_video(checkpoint: str, preferences, path: str, args) -> str:
     """One episode per preference of ``args.seconds`` (default: the task's episode length), tiled into ``path``."""
+    print(f"pchc-play: loading {checkpoint} and building {len(preferences)} env(s)...", flush=True)
     task, env, policy = load_policy(checkpoint, len(preferences), args.seed, args.seconds, args.push_every,
                                     args.overrides)
     check_objectives(env, preferences, checkpoint)
@@ -211,6 +212,7 @@ def record_checkpoint_video(checkpoint: str, preferences, path: str, args) -> st
 
         renderer, dt = G1Renderer(env, args.width, args.height), env.dt
     seconds = args.seconds if args.seconds is not None else env.max_episode_length * dt
+    print(f"pchc-play: simulating and rendering {seconds:g} s at {len(preferences)} preference(s)...", flush=True)
     try:
         frames = record_video(env, policy, renderer, preferences, path, seconds, dt, args.fps)
     finally:

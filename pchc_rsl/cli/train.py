@@ -203,8 +203,19 @@ def train(cfg, config: dict, log_dir: str, args) -> None:
     try:
         print(f"{PROG}: {apply_threads(cfg, args.threads)}", flush=True)
         runner = make_runner(cfg, log_dir, verbose=args.verbose, config=config)
+        if getattr(runner.alg, "amp", None) is not None:
+            print(f"{PROG}: {runner.alg.amp.summary}", flush=True)
         if args.resume:
-            runner.load(args.resume, resume=True)
+            try:
+                runner.load(args.resume, resume=True)
+            except ValueError as error:
+                network = [o for o in config["overrides"]
+                           if o.startswith(("runner.actor", "runner.critic", "runner.obs_groups"))]
+                if not network:
+                    raise
+                raise ValueError(f"{' '.join(network)} does not fit the networks saved in {args.resume} ({error}); "
+                                 "a resumed run keeps the checkpoint's networks: drop the override, or start a new "
+                                 "run with --task.") from None
         elif args.init_from:
             runner.load(args.init_from, load_cfg=INIT_FROM_PARTS)
         first = runner.current_learning_iteration
@@ -240,6 +251,9 @@ def _stop_on_signals() -> None:
     iteration is saved. SIGINT is handled even when the shell started the run in the background with it ignored."""
 
     def interrupt(signum, frame):
+        for number in (signal.SIGINT, signal.SIGTERM):  # a second Ctrl-C while saving must not cut the save short
+            signal.signal(number, lambda *_: print(f"\n{PROG}: stopping, saving the last finished iteration...",
+                                                   flush=True))
         raise KeyboardInterrupt
 
     for number in (signal.SIGINT, signal.SIGTERM):

@@ -18,17 +18,17 @@ def _pyplot():
 
 def plot_pareto(results, evaluation, path):
     plt = _pyplot()
-    (a, _), (b, _) = evaluation.front
+    (a, sign_a), (b, sign_b) = evaluation.front  # plotted signed, as the front and its reference point are
     fig, ax = plt.subplots(figsize=(5.5, 4.5))
     for result in results:
-        xs = [r["metrics"].get(a, np.nan) for r in result["rows"]]
-        ys = [r["metrics"].get(b, np.nan) for r in result["rows"]]
+        xs = [sign_a * r["metrics"].get(a, np.nan) for r in result["rows"]]
+        ys = [sign_b * r["metrics"].get(b, np.nan) for r in result["rows"]]
         f = result["front"]
         ax.plot(xs, ys, "o-", label=f"{result['name']}: HV {f['hypervolume']:.3g}, S {f['sparsity']:.3g}")
         for row, x, y in zip(result["rows"], xs, ys):
             ax.annotate("(" + ", ".join(f"{v:.2f}" for v in row["preference"]) + ")", (x, y), fontsize=7)
-    ax.set_xlabel(evaluation.columns.get(a, a))
-    ax.set_ylabel(evaluation.columns.get(b, b))
+    ax.set_xlabel(("−" if sign_a < 0 else "") + evaluation.columns.get(a, a) + " (more is better)")
+    ax.set_ylabel(("−" if sign_b < 0 else "") + evaluation.columns.get(b, b) + " (more is better)")
     ax.set_title(f"{evaluation.table}; HV reference point {evaluation.reference_point}", fontsize=9)
     empty = _empty_front_reason(results, evaluation)
     if empty:

@@ -22,8 +22,8 @@ def load_checkpoint(path: str, map_location: str | None = "cpu") -> dict:
         if "zip archive" in reason or "central directory" in reason:  # torch's own text adds nothing here
             raise ValueError(f"{path} ({size} bytes) is truncated or is not a PyTorch checkpoint (not a complete "
                              "zip archive).") from None
-        raise ValueError(f"{path} ({size} bytes) cannot be read as a PyTorch checkpoint: "
-                         f"{type(error).__name__}: {reason}") from None
+        raise ValueError(f"{path} ({size} bytes) is damaged or truncated, or not a PyTorch checkpoint (torch.load "
+                         f"failed: {type(error).__name__}: {reason})") from None
     if not isinstance(loaded, dict) or "actor_state_dict" not in loaded:
         raise ValueError(f"{path} is a torch file but not an rsl-rl checkpoint (no actor_state_dict).")
     return loaded

@@ -216,10 +216,10 @@ class PCHCRunner(OnPolicyRunner):
         try:
             load_iteration = self.alg.load(loaded, load_cfg, strict)
         except RuntimeError as error:
-            first_line = str(error).strip().splitlines()[0]
-            raise ValueError(
-                f"{path} does not fit this runner's models (was it trained with another config?): {first_line}"
-            ) from error
+            lines = [line.strip() for line in str(error).strip().splitlines() if line.strip()]
+            detail = next((line for line in lines[1:] if line.startswith(("size mismatch", "Missing", "Unexpected"))),
+                          lines[0] if lines else "")
+            raise ValueError(f"{path} does not fit this runner's networks: {detail[:300]}") from None
         if load_iteration:
             self.current_learning_iteration = loaded["iter"] + 1
         if resume:
