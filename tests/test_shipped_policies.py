@@ -57,9 +57,9 @@ def test_push_sweep_finds_no_falls_without_a_push_and_all_falls_under_a_huge_one
     (a sprinter's speed, given in an instant) topples it at both end preferences."""
     from tool_loader import load_tool
 
-    success = load_tool("push_sweep").main([shipped("g1_fall_recovery"), "--speeds", "0", "6", "--num-envs", "4",
-                                            "--preferences", "2"])
+    results = load_tool("push_sweep").main([shipped("g1_fall_recovery"), "--speeds", "0", "6", "--num-envs", "4",
+                                            "--preferences", "2", "--window", "3"])["results"]
     for lam in [(1.0, 0.0), (0.0, 1.0)]:
-        assert success[lam][0.0][0] == 100.0
-        assert success[lam][6.0][0] == 0.0
+        assert results[lam][0.0]["success"] == 100.0
+        assert results[lam][6.0]["success"] == 0.0
     assert "| (1.00, 0.00) | 100.0 [" in capsys.readouterr().out
