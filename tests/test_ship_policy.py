@@ -86,3 +86,23 @@ def test_export_onnx_refuses_to_replace_a_file_without_force(tmp_path):
     assert target.read_text() == "keep me"
     export_onnx.main([str(tmp_path / "run" / "model_0.pt"), "-o", str(target), "--force"])
     assert target.stat().st_size > 1000
+
+
+def test_init_from_keeps_the_curriculum_progress_and_not_the_random_streams(tmp_path):
+    """--init-from of a fall-recovery checkpoint: a new run (iterations from 0, fresh optimizer) whose curriculum
+    continues where the networks were trained (assist 0.35, eta's step count), with the run's own random streams."""
+    from test_g1_env import g1_available
+
+    if not g1_available():
+        pytest.skip("G1 model unavailable (set MENAGERIE_ROOT offline)")
+    train_cli.main(["--task", "g1-fall-recovery-fast", "--num-envs", "2", "--max-iterations", "1",
+                    "runner.num_steps_per_env=4", "--log-dir", str(tmp_path / "run")])
+    original = tmp_path / "run" / "model_0.pt"
+    saved = torch.load(original, weights_only=True)
+    saved["training_state"]["env"].update(assist_level=0.35, global_steps=20000)
+    torch.save(saved, original)
+    train_cli.main(["--task", "g1-fall-recovery-fast", "--num-envs", "2", "--max-iterations", "1", "--seed", "5",
+                    "runner.num_steps_per_env=4", "--init-from", str(original), "--log-dir", str(tmp_path / "new")])
+    new = torch.load(tmp_path / "new" / "model_0.pt", weights_only=True)
+    assert new["iter"] == 0 and new["training_state"]["env"]["global_steps"] == 20000 + 4
+    assert not torch.equal(new["training_state"]["env"]["generator"], saved["training_state"]["env"]["generator"])

@@ -218,6 +218,7 @@ def train(cfg, config: dict, log_dir: str, args) -> None:
                                  "run with --task.") from None
         elif args.init_from:
             runner.load(args.init_from, load_cfg=INIT_FROM_PARTS)
+            _continue_env_progress(runner, args.init_from)
         first = runner.current_learning_iteration
         last = first + cfg.runner.max_iterations - 1
         print(f"{PROG}: {cfg.name}, {cfg.num_envs} envs on {cfg.device}, iterations {first}-{last} -> {log_dir}",
@@ -244,6 +245,20 @@ def train(cfg, config: dict, log_dir: str, args) -> None:
         remove_if_unused(log_dir, created)
         raise
     _summary(cfg, log_dir, checkpoints_in(log_dir)[-1], start)
+
+
+def _continue_env_progress(runner, path: str) -> None:
+    """--init-from: the env's training progress (the fall-recovery curriculum's assist level and action scale) that
+    the networks were trained at, not its random streams: a fine-tuned getting-up policy must not restart at full
+    assist and eta 1."""
+    from pchc_rsl.runners import load_checkpoint
+
+    state = (load_checkpoint(path).get("training_state") or {}).get("env") or {}
+    progress = {k: v for k, v in state.items() if k not in ("generator", "rng")}
+    if progress and hasattr(runner.env, "load_state_dict"):
+        runner.env.load_state_dict(progress)
+        print(f"{PROG}: the env continues the checkpoint's progress: "
+              + ", ".join(f"{k} {v:g}" for k, v in progress.items()), flush=True)
 
 
 def _stop_on_signals() -> None:
