@@ -325,6 +325,40 @@ class G1Env(VecEnv):
         log["Episode_Termination/fall"] = finished["fell"].float().mean()
         return log
 
+    # ---------------------------------------------------------------- deployment
+    def deploy_metadata(self) -> dict:
+        """What running this policy on a robot needs, from the env itself (the exported ONNX file carries it, so a
+        deploy reads nothing from the training config): joints in the policy's order with their PD gains, effort
+        limits, default pose and action scale, the observation layout and the control period."""
+        model = self.model
+        frame = [["base_ang_vel", 3], ["projected_gravity", 3], ["joint_pos_minus_default", self.num_actions],
+                 ["joint_vel", self.num_actions], ["last_action", self.num_actions], ["action_scale_eta", 1]]
+        if self.cfg.use_command:
+            frame.append(["velocity_command", 3])
+        return {
+            "format": 1,
+            "joint_names": list(self.cfg.joints),
+            "kp": [float(x) for x in model.actuator_gainprm[:, 0]],
+            "kd": [float(-x) for x in model.actuator_biasprm[:, 2]],
+            "effort_limit": [float(x) for x in model.actuator_forcerange[:, 1]],
+            "default_joint_pos": self.default_joint_pos.tolist(),
+            "action_scale": (self.action_scale[0] * self.joint_action_weights).tolist(),
+            "action_clip": float(self.cfg.action_clip),
+            "target": "q_target = default_joint_pos + action_scale * clip(action, -action_clip, action_clip)",
+            "observation": {
+                "frame": frame,
+                "frames": self.cfg.history_length + 1,
+                "order": "newest frame first; each quantity in SI units, unscaled (scale 1)",
+                "frame_dim": sum(size for _, size in frame),
+                "base_ang_vel_frame": "pelvis (body) frame",
+            },
+            "control_period_s": float(self.dt),
+            "physics_timestep_s": float(self.cfg.timestep),
+            "decimation": int(self.cfg.decimation),
+            "objective_names": list(self.cfg.objective_names),
+            "preference_size": self.num_objectives,
+        }
+
     # ---------------------------------------------------------------- checkpointed state
     def state_dict(self) -> dict:
         """What a resumed run needs to continue this env's random streams (the physics state restarts)."""

@@ -22,8 +22,13 @@ from pchc_rsl.preference import SUM_TOLERANCE, validate_preference
 OPSET = 18
 
 
+METADATA_KEY = "pchc"
+"""The ONNX metadata_props key under which the deploy metadata is stored, as JSON."""
+
+
 def export_onnx(
-    policy: torch.nn.Module, path: str, check: bool = True, atol: float = 1e-5, verbose: bool = False
+    policy: torch.nn.Module, path: str, check: bool = True, atol: float = 1e-5, verbose: bool = False,
+    metadata: dict | None = None,
 ) -> str:
     """Export ``policy.as_onnx()`` to ``path`` with inputs ``obs`` [B, obs_dim], ``preference`` [B, m] and output
     ``actions`` [B, A], B dynamic, as one self-contained file. With ``check``, onnxruntime must match torch within
@@ -51,9 +56,24 @@ def export_onnx(
             verbose=verbose,
         )
     atomic_write(path, lambda tmp: program.save(tmp, external_data=False))
+    if metadata is not None:
+        _write_metadata(path, metadata)
     if check:
         check_onnx_against_torch(module, path, atol)
     return path
+
+
+def _write_metadata(path: str, metadata: dict) -> None:
+    """Store ``metadata`` (JSON) in the ONNX file's metadata_props, where onnxruntime exposes it to a deploy."""
+    import json
+
+    import onnx
+
+    model = onnx.load(path)
+    del model.metadata_props[:]
+    entry = model.metadata_props.add()
+    entry.key, entry.value = METADATA_KEY, json.dumps(metadata)
+    atomic_write(path, lambda tmp: onnx.save(model, tmp))
 
 
 @contextlib.contextmanager
@@ -116,6 +136,19 @@ class OnnxPolicy:
             raise ValueError(f"{path} has inputs {list(inputs)}; a PCHC policy has 'obs' and 'preference'.")
         self.obs_dim = int(inputs["obs"][1])
         self.num_objectives = int(inputs["preference"][1])
+        self.path = path
+        self._metadata = self.session.get_modelmeta().custom_metadata_map.get(METADATA_KEY)
+
+    @property
+    def metadata(self) -> dict:
+        """What a deploy needs (task, joints in order, kp, kd, effort limits, default pose, action scale, the
+        observation layout, the control period, objectives); ValueError for a file exported without it."""
+        if self._metadata is None:
+            raise ValueError(f"{self.path} was exported before policies carried their deploy metadata; re-export "
+                             f"it: pchc-export-onnx CHECKPOINT.pt -o {self.path} --force")
+        import json
+
+        return json.loads(self._metadata)
 
     def __call__(self, obs: np.ndarray, preference: np.ndarray) -> np.ndarray:
         obs = np.asarray(obs, dtype=np.float32)

@@ -104,3 +104,43 @@ def test_onnx_policy_names_the_first_bad_input_row(exported):
         policy(obs, bad_lam)
     assert len(str(error.value)) < 300
     assert policy(obs, lam).shape == (4096, 3)
+
+
+def test_a_g1_policy_file_describes_itself_for_a_deploy(tmp_path):
+    """The walker's ONNX carries the task, joints in order with kp / kd / effort limits from the G1's constants,
+    the default pose, the action scale (0.25 x effort / kp per joint), an observation layout whose size is the
+    policy's input, and the control period; a file exported without it is refused in one line naming the fix."""
+    import os
+
+    from test_g1_env import g1_available
+
+    if not g1_available():
+        pytest.skip("G1 model unavailable (set MENAGERIE_ROOT offline)")
+    from pchc_rsl.cli import export_onnx as export_cli
+    from pchc_rsl.export import OnnxPolicy
+    from pchc_rsl.robots.g1.constants import WALK_JOINTS, joint_gains, joint_motor
+    from pchc_rsl.robots.g1.model import default_joint_positions
+
+    walker = os.path.join(os.path.dirname(__file__), "..", "policies", "g1_walk.pt")
+    path = str(tmp_path / "walk.onnx")
+    export_cli.main([walker, "-o", path])
+    policy = OnnxPolicy(path)
+    meta = policy.metadata
+    assert meta["task"] == "g1-walk-fast" and meta["joint_names"] == list(WALK_JOINTS)
+    assert meta["kp"] == pytest.approx([joint_gains(j)[0] for j in WALK_JOINTS])
+    assert meta["kd"] == pytest.approx([joint_gains(j)[1] for j in WALK_JOINTS])
+    assert meta["effort_limit"] == pytest.approx([joint_motor(j).effort_limit for j in WALK_JOINTS])
+    assert meta["default_joint_pos"] == pytest.approx(list(default_joint_positions(list(WALK_JOINTS))), abs=1e-6)
+    assert meta["action_scale"] == pytest.approx(
+        [0.25 * joint_motor(j).effort_limit / joint_gains(j)[0] for j in WALK_JOINTS], rel=1e-5)
+    assert meta["observation"]["frames"] * meta["observation"]["frame_dim"] == policy.obs_dim == 420
+    assert meta["control_period_s"] == pytest.approx(0.02)
+    assert meta["objective_names"] == ["disturbance", "stride"] and meta["preference_size"] == 2
+    old = str(tmp_path / "old.onnx")
+    import onnx
+
+    model = onnx.load(path)
+    del model.metadata_props[:]
+    onnx.save(model, old)
+    with pytest.raises(ValueError, match=r"exported before .* re-export it: pchc-export-onnx CHECKPOINT.pt -o"):
+        OnnxPolicy(old).metadata

@@ -42,9 +42,14 @@ def export(checkpoint: str, output: str, verbose: bool = False) -> str:
 
     cfg = restore_config(saved_config(checkpoint, load_checkpoint(checkpoint)))
     cfg.num_envs, cfg.device = 1, "cpu"
+    if hasattr(cfg.env, "curriculum"):
+        cfg.env.curriculum = False  # the deployed action scale is the curriculum's final one, as pchc-eval runs it
     runner = make_runner(cfg, verbose=verbose)
     runner.load(checkpoint)
-    return runner.export_onnx(output, verbose=verbose)
+    metadata = None
+    if hasattr(runner.env, "deploy_metadata"):
+        metadata = {"task": cfg.name, **runner.env.deploy_metadata()}
+    return runner.export_onnx(output, verbose=verbose, metadata=metadata)
 
 
 if __name__ == "__main__":

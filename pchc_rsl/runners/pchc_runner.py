@@ -227,9 +227,10 @@ class PCHCRunner(OnPolicyRunner):
         self.last_good_checkpoint = path
         return loaded.get("infos")
 
-    def export_onnx(self, path: str, verbose: bool = False) -> str:
-        """Export the deterministic policy (inputs ``obs``, ``preference``) and check it against torch."""
-        return export_onnx(self.alg.get_policy(), path, verbose=verbose)
+    def export_onnx(self, path: str, verbose: bool = False, metadata: dict | None = None) -> str:
+        """Export the deterministic policy (inputs ``obs``, ``preference``), with ``metadata`` for a deploy, and
+        check it against torch."""
+        return export_onnx(self.alg.get_policy(), path, verbose=verbose, metadata=metadata)
 
 
 def model_tensors(saved: dict):
