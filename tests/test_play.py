@@ -27,19 +27,6 @@ def toy_checkpoint(tmp_path_factory):
     return str(log_dir / "model_0.pt")
 
 
-@pytest.fixture(scope="module")
-def walk_checkpoint(tmp_path_factory):
-    from test_g1_env import g1_available
-
-    if not g1_available():
-        pytest.skip("the G1 model is not available (set MENAGERIE_ROOT)")
-    from pchc_rsl.cli import train
-
-    log_dir = tmp_path_factory.mktemp("walk")
-    train.main(["--task", "g1-walk-fast", "--num-envs", "2", "--max-iterations", "1", "--log-dir", str(log_dir)])
-    return str(log_dir / "model_0.pt")
-
-
 def run_play(args, **env_vars):
     """pchc-play in a fresh process with these environment variables (None removes one)."""
     env = dict(os.environ)

@@ -19,19 +19,6 @@ def test_default_conditions_cover_the_shifts_of_each_task():
     assert [n for n in walk if n.startswith("push")] == ["push 1 m/s", "push 1.5 m/s", "push 2 m/s"]
 
 
-@pytest.fixture(scope="module")
-def walk_checkpoint(tmp_path_factory):
-    from test_g1_env import g1_available
-
-    if not g1_available():
-        pytest.skip("the G1 model is not available (set MENAGERIE_ROOT)")
-    from pchc_rsl.cli import train
-
-    log_dir = tmp_path_factory.mktemp("walk")
-    train.main(["--task", "g1-walk-fast", "--num-envs", "2", "--max-iterations", "1", "--log-dir", str(log_dir)])
-    return str(log_dir / "model_0.pt")
-
-
 def test_condition_overrides_reach_the_evaluated_env(walk_checkpoint):
     """Built as the evaluation builds them: 20 ms is 4 substeps of 5 ms in every env; friction 0.4, +5 kg and
     x0.8 strength are the model's own values (read from the MjModel, not from the config)."""
