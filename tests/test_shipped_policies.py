@@ -63,3 +63,17 @@ def test_push_sweep_finds_no_falls_without_a_push_and_all_falls_under_a_huge_one
         assert results[lam][0.0]["success"] == 100.0
         assert results[lam][6.0]["success"] == 0.0
     assert "| (1.00, 0.00) | 100.0 [" in capsys.readouterr().out
+
+
+def test_the_push_calibration_rule_on_a_hand_made_sweep():
+    """Fall recovery at (0.5, 0.5): mild is the speed whose COM displacement is nearest the paper's 1.62 m among
+    those keeping 90% up (2.0 m/s: 1.5 m; 2.5 m/s is nearer, 1.7 m, but only 85% stay up); strong is the speed
+    whose success is nearest 75.7% (2.5 m/s: 85%, against 60% at 3.0)."""
+    from tool_loader import load_tool
+
+    choose = load_tool("push_sweep").choose_presets
+    sweep = {1.0: {"com_displacement": 0.5, "success": 100.0}, 2.0: {"com_displacement": 1.5, "success": 95.0},
+             2.5: {"com_displacement": 1.7, "success": 85.0}, 3.0: {"com_displacement": 2.5, "success": 60.0}}
+    assert choose(sweep, "fall", "com_displacement", "success") == (2.0, 2.5)
+    walk = {0.5: {"push_deviation": 0.3, "fall_rate": 0.0}, 2.0: {"push_deviation": 1.6, "fall_rate": 30.0}}
+    assert choose(walk, "walk", "push_deviation", "fall_rate") == (0.5, 2.0)  # 70% up is nearest 75.7%
