@@ -343,6 +343,9 @@ class G1Env(VecEnv):
             "effort_limit": [float(x) for x in model.actuator_forcerange[:, 1]],
             "default_joint_pos": self.default_joint_pos.tolist(),
             "action_scale": (self.action_scale[0] * self.joint_action_weights).tolist(),
+            "action_scale_eta": float(self.action_scale[0, 0]),  # the frame's eta entry
+            "joint_range": [[float(lo), float(hi)] for lo, hi in
+                            (model.jnt_range[model.joint(j).id] for j in self.cfg.joints)],
             "action_clip": float(self.cfg.action_clip),
             "target": "q_target = default_joint_pos + action_scale * clip(action, -action_clip, action_clip)",
             "observation": {

@@ -39,7 +39,7 @@ def load_g1_spec() -> mujoco.MjSpec:
 
 
 def build_g1_model(joints: list[str], timestep: float = 0.002, lean_feet: bool = True,
-                   visual: bool = False) -> mujoco.MjModel:
+                   visual: bool = False, torque_control: bool = False) -> mujoco.MjModel:
     """Compile a G1 that actuates exactly ``joints`` (in that order) with position actuators.
 
     Joints not in ``joints`` are deleted, which welds their bodies to the parent (mass kept, no cost).
@@ -47,7 +47,8 @@ def build_g1_model(joints: list[str], timestep: float = 0.002, lean_feet: bool =
     physics model) drops the visual meshes altogether: they weigh nothing (density 0) but are 197k vertices, about
     70 MB per model copy; ``visual=True`` keeps them, non-colliding, for rendering the same physics state.
     The floor has geom priority 1, so a contact's friction is the floor's (randomisable), not the larger of the two.
-    Sensors: per foot a framepos, a framelinvel and a touch sensor (sole contact force); the whole-body centre of
+    ``torque_control``: motor actuators (ctrl is the joint torque, clipped to the effort limit) instead of position
+    actuators, for a simulator that applies the robot's own PD law (the sim bridge). Sensors: per foot a framepos, a framelinvel and a touch sensor (sole contact force); the whole-body centre of
     mass (subtree COM of the pelvis); then one actuatorfrc per actuator.
     """
     spec = load_g1_spec()
@@ -92,11 +93,15 @@ def build_g1_model(joints: list[str], timestep: float = 0.002, lean_feet: bool =
         motor = joint_motor(name)
         kp, kd = joint_gains(name)
         joint.armature = motor.armature
+        if torque_control:
+            kp, kd = 1.0, 0.0  # ctrl = torque: gain 1, no bias
         spec.add_actuator(
             name=name.replace("_joint", ""), target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT,
             gaintype=mujoco.mjtGain.mjGAIN_FIXED, gainprm=[kp] + [0] * 9,
-            biastype=mujoco.mjtBias.mjBIAS_AFFINE, biasprm=[0, -kp, -kd] + [0] * 7,
+            biastype=mujoco.mjtBias.mjBIAS_AFFINE if not torque_control else mujoco.mjtBias.mjBIAS_NONE,
+            biasprm=([0, -kp, -kd] if not torque_control else [0, 0, 0]) + [0] * 7,
             forcelimited=True, forcerange=[-motor.effort_limit, motor.effort_limit],
+            ctrllimited=torque_control, ctrlrange=[-motor.effort_limit, motor.effort_limit],
         )
 
     for site_name, body_name in zip(FOOT_SITES, FOOT_BODIES):

@@ -1,0 +1,231 @@
+"""One code path from a policy file to a G1, whatever carries the messages: in-process MuJoCo (lockstep, no DDS),
+the MuJoCo DDS bridge on loopback, or the real robot. Each control period: read the latest state, apply the
+operator's input, let the safety state machine decide the command (the policy's only in POLICY mode), send it."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from pchc_rsl.deploy.fixed_rate import FixedRateLoop
+from pchc_rsl.deploy.g1_motors import MOTOR_DEFAULT_POS, MOTOR_HOLD_KD, MOTOR_HOLD_KP
+from pchc_rsl.deploy.live_controls import Command, KeyReader, Preference, RemoteEdges
+from pchc_rsl.deploy.policy_step import PolicyStep
+from pchc_rsl.deploy.robot_io import MotorCommand, Remote, RobotState
+from pchc_rsl.deploy.safety import Mode, SafetyStateMachine
+from pchc_rsl.deploy.simulator import G1Simulator
+
+NO_STATE_TIMEOUT_S = 3.0
+
+
+class NoLowState(RuntimeError):
+    """No rt/lowstate arrived in time."""
+
+
+class InProcessRobot:
+    """The simulator driven in lockstep: each tick advances the physics by one control period (no wall clock)."""
+
+    def __init__(self, sim: G1Simulator, period_s: float) -> None:
+        self.sim, self.period = sim, period_s
+        self.substeps = max(1, round(period_s / sim.model.opt.timestep))
+        self.received = self.sent = 0
+        self.loop = None
+
+    def now(self) -> float:
+        return self.sim.time
+
+    def read(self) -> RobotState:
+        state = self.sim.state()
+        state.received_at = self.sim.time
+        self.received += 1
+        return state
+
+    def send(self, cmd: MotorCommand) -> None:
+        self.sim.apply(cmd)
+        self.sent += 1
+
+    def wait_tick(self) -> None:
+        for _ in range(self.substeps):
+            self.sim.step()
+
+
+class WallClockRobot:
+    """A DDS robot (bridge or real) paced by a fixed-rate loop on the monotonic clock."""
+
+    def __init__(self, dds, period_s: float) -> None:
+        self.dds = dds
+        self.loop = FixedRateLoop(period_s)
+
+    def now(self) -> float:
+        return time.monotonic()
+
+    def read(self) -> RobotState | None:
+        return self.dds.read()
+
+    def send(self, cmd: MotorCommand) -> None:
+        self.dds.send(cmd)
+
+    def wait_tick(self) -> None:
+        self.loop.wait()
+
+    @property
+    def received(self) -> int:
+        return self.dds.received
+
+    @property
+    def sent(self) -> int:
+        return self.dds.sent
+
+
+@dataclass
+class AutoSequence:
+    """The whole start without keys (--sim, tests): zero torque, ramp, hold, then the policy until the end."""
+
+    zero_torque_s: float = 0.5
+    hold_s: float = 1.0
+
+    def request(self, machine: SafetyStateMachine, state: RobotState | None, now: float) -> None:
+        since = now - machine.mode_since
+        if machine.mode is Mode.ZERO_TORQUE and since >= self.zero_torque_s:
+            machine.request(Mode.RAMP, now, state)
+        elif machine.mode is Mode.HOLD and since >= self.hold_s:
+            machine.request(Mode.POLICY, now, state)
+
+
+@dataclass
+class DeployLog:
+    events: list = field(default_factory=list)
+    trajectory: list = field(default_factory=list)  # (time since policy start, q of the policy joints)
+
+
+class Deployment:
+    def __init__(self, policy: PolicyStep, robot, preference, command: float = 0.0, auto: AutoSequence | None = None,
+                 keys: KeyReader | None = None, log=print) -> None:
+        self.policy, self.robot, self.auto, self.keys, self.log = policy, robot, auto, keys, log
+        joints = policy.joints
+        kp, kd = MOTOR_HOLD_KP.copy(), MOTOR_HOLD_KD.copy()
+        kp[joints.motor_index], kd[joints.motor_index] = policy.kp, policy.kd
+        self.default_pos = joints.to_motors(policy.default_pos, MOTOR_DEFAULT_POS)
+        self.safety = SafetyStateMachine(kp, kd, self.default_pos, joints.motor_index, policy.joint_range)
+        self.preference = Preference(preference, policy.objective_names)
+        self.command = Command(command)
+        self.remote = RemoteEdges()
+        self.record = DeployLog()
+        self.quit_requested = False
+        self.policy_since: float | None = None
+        self.started = robot.now()
+
+    # ------------------------------------------------------------------ input
+    def _operator(self, state: RobotState | None, now: float) -> None:
+        actions = list(self.keys.pending()) if self.keys is not None else []
+        if state is not None:
+            pressed = self.remote.pressed(Remote.parse(state.remote).buttons)
+            names = {"start": "s", "A": "p", "select": "d", "B": "d", "L1": "[", "R1": "]", "up": "w", "down": "x"}
+            actions += [names[b] for b in pressed if b in names]
+        for key in actions:
+            self._act(key, state, now)
+        if self.auto is not None:
+            self.auto.request(self.safety, state, now)
+
+    def _act(self, key: str, state: RobotState | None, now: float) -> None:
+        before = (str(self.preference), str(self.command))
+        if key == "s":
+            self.safety.request(Mode.RAMP, now, state)
+        elif key == "p":
+            self.safety.request(Mode.POLICY, now, state)
+        elif key in ("d", " "):
+            self.safety.request(Mode.DAMPING, now, reason="operator")
+        elif key == "q":
+            self.safety.request(Mode.DAMPING, now, reason="quit")
+            self.quit_requested = True
+        elif key in "[]":
+            self.preference.towards(0 if key == "[" else len(self.preference.value) - 1)
+        elif key.isdigit() and 0 < int(key) <= len(self.preference.value):
+            self.preference.selected = int(key) - 1
+        elif key in "+-":
+            self.preference.towards(self.preference.selected, 0.1 if key == "+" else -0.1)
+        elif key in "wx":
+            self.command.change(0.1 if key == "w" else -0.1)
+        elif key == "z":
+            self.command.change(-self.command.value[0])
+        after = (str(self.preference), str(self.command))
+        if after != before:
+            self.log(f"{after[0]}" + (f", {after[1]}" if self.policy.uses_command else ""))
+
+    # ------------------------------------------------------------------ one control period
+    def tick(self) -> None:
+        now = self.robot.now()
+        state = self.robot.read()
+        mode_before = self.safety.mode
+        self._operator(state, now)
+        targets = None
+        if self.safety.mode is Mode.POLICY:
+            if self.policy_since is None:
+                self.policy.reset(state, self.command.value)
+                self.policy_since = now
+            q = self.policy(state, self.preference.value, self.command.value)
+            targets = self.policy.joints.to_motors(q, self.default_pos)
+            self.record.trajectory.append((now - self.policy_since, self.policy.joints.to_policy(state.q)))
+        cmd = self.safety.command(state, now, targets)
+        if self.safety.mode is not mode_before:
+            reason = f" ({self.safety.reason})" if self.safety.reason else ""
+            self.log(f"{self.safety.mode.value}{reason}")
+            self.record.events.append((round(now - self.started, 3), self.safety.mode.name, self.safety.reason))
+        if cmd is not None:
+            self.robot.send(cmd)
+
+    def run(self, seconds: float | None = None, no_state_hint: str = "") -> None:
+        """Tick until ``seconds`` of policy (or of the whole run without an auto sequence), a quit or Ctrl-C; then
+        damp for half a second so the robot is left safe."""
+        start = self.robot.now()
+        try:
+            while not self.quit_requested:
+                self.tick()
+                now = self.robot.now()
+                if self.safety.mode is Mode.WAIT and now - start > NO_STATE_TIMEOUT_S:
+                    raise NoLowState(f"no rt/lowstate within {NO_STATE_TIMEOUT_S:.0f} s{no_state_hint}")
+                if seconds is not None:
+                    since = self.policy_since if self.auto is not None else start
+                    if since is not None and now - since >= seconds:
+                        break
+                    if self.safety.mode is Mode.DAMPING and self.auto is not None:
+                        break
+                self.robot.wait_tick()
+        except KeyboardInterrupt:
+            self.safety.request(Mode.DAMPING, self.robot.now(), reason="Ctrl-C")
+        finally:
+            self._damp_out()
+
+    def _damp_out(self, seconds: float = 0.5) -> None:
+        if self.safety.mode is Mode.WAIT:
+            return
+        now = self.robot.now()
+        if self.safety.mode is not Mode.DAMPING:
+            self.safety.request(Mode.DAMPING, now, reason=self.safety.reason or "end of run")
+            self.log(f"damping ({self.safety.reason})")
+        end = now + seconds
+        while self.robot.now() < end:
+            cmd = self.safety.command(self.robot.read(), self.robot.now())
+            if cmd is not None:
+                self.robot.send(cmd)
+            self.robot.wait_tick()
+
+    def report(self) -> dict:
+        out = {"task": self.policy.task, "final_mode": self.safety.mode.name, "reason": self.safety.reason,
+               "preference": [round(float(x), 4) for x in self.preference.value],
+               "policy_seconds": round(self.robot.now() - self.policy_since, 3) if self.policy_since is not None else 0,
+               "messages_received": int(self.robot.received), "messages_sent": int(self.robot.sent),
+               "events": self.record.events}
+        if self.robot.loop is not None:
+            out["loop"] = self.robot.loop.summary()
+        return out
+
+
+def policy_trajectory(record: DeployLog) -> tuple[np.ndarray, np.ndarray]:
+    """(times [T], joint positions [T, J]) of the policy phase."""
+    if not record.trajectory:
+        return np.zeros(0), np.zeros((0, 0))
+    times, q = zip(*record.trajectory)
+    return np.array(times), np.stack(q)

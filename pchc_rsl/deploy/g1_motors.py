@@ -1,0 +1,71 @@
+"""The G1's 29 motors in the order of unitree_sdk2's hg LowCmd/LowState, and the map from a policy's joints to them.
+
+A policy drives a subset of the joints (20 for walking, 23 for fall recovery: the rest were welded in training);
+on the robot every motor needs a command, so the joints a policy does not drive are held at the default pose by PD
+with the gains of the armature rule (robots/g1/constants.py). The most frequent deploy fault in public G1 projects
+is a joint-order mismatch, so the map goes by name, never by position.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pchc_rsl.robots.g1.constants import DEFAULT_POSE, joint_gains, joint_motor
+
+MOTOR_JOINTS = [
+    *(f"left_{n}_joint" for n in ("hip_pitch", "hip_roll", "hip_yaw", "knee", "ankle_pitch", "ankle_roll")),
+    *(f"right_{n}_joint" for n in ("hip_pitch", "hip_roll", "hip_yaw", "knee", "ankle_pitch", "ankle_roll")),
+    "waist_yaw_joint", "waist_roll_joint", "waist_pitch_joint",
+    *(f"left_{n}_joint" for n in ("shoulder_pitch", "shoulder_roll", "shoulder_yaw", "elbow", "wrist_roll",
+                                   "wrist_pitch", "wrist_yaw")),
+    *(f"right_{n}_joint" for n in ("shoulder_pitch", "shoulder_roll", "shoulder_yaw", "elbow", "wrist_roll",
+                                    "wrist_pitch", "wrist_yaw")),
+]
+"""Motor i of rt/lowcmd and rt/lowstate (29-DoF G1; slots 29-34 of the 35 are unused)."""
+
+NUM_MOTORS = len(MOTOR_JOINTS)
+MOTOR_KP = np.array([joint_gains(j)[0] for j in MOTOR_JOINTS])
+MOTOR_KD = np.array([joint_gains(j)[1] for j in MOTOR_JOINTS])
+MOTOR_EFFORT_LIMIT = np.array([joint_motor(j).effort_limit for j in MOTOR_JOINTS])
+MOTOR_DEFAULT_POS = np.array([DEFAULT_POSE.get(j, 0.0) for j in MOTOR_JOINTS])
+
+
+def holding_gains(joint: str) -> tuple[float, float]:
+    """(kp, kd) for a joint that the policy does not drive. A policy trained with that joint welded falls over
+    when the joint is held as softly as the armature rule's gains (the waist at kp 40 let the walker drift 0.3 m
+    in 10 s against 2.8 m with a stiff waist, in pchc-deploy's simulator), so these are the stiffer holding
+    gains of unitree_rl_gym's G1 deploy config: waist 300 / 3, wrists 20 / 1; the rest keep the armature rule."""
+    if joint.startswith("waist"):
+        return 300.0, 3.0
+    if "wrist" in joint:
+        return 20.0, 1.0
+    return joint_gains(joint)
+
+
+MOTOR_HOLD_KP = np.array([holding_gains(j)[0] for j in MOTOR_JOINTS])
+MOTOR_HOLD_KD = np.array([holding_gains(j)[1] for j in MOTOR_JOINTS])
+
+
+class JointMap:
+    """Index arrays between the policy's joint order and the 29-motor order, built from names."""
+
+    def __init__(self, policy_joints: list[str]) -> None:
+        unknown = [j for j in policy_joints if j not in MOTOR_JOINTS]
+        if unknown:
+            raise ValueError(f"the policy drives joints that a G1 does not have: {unknown}; G1 joints are "
+                             f"{MOTOR_JOINTS[0]} ... {MOTOR_JOINTS[-1]} (29, unitree_sdk2's order).")
+        if len(set(policy_joints)) != len(policy_joints):
+            raise ValueError(f"the policy names a joint twice: {policy_joints}.")
+        self.policy_joints = list(policy_joints)
+        self.motor_index = np.array([MOTOR_JOINTS.index(j) for j in policy_joints])
+        self.held = np.setdiff1d(np.arange(NUM_MOTORS), self.motor_index)
+
+    def to_policy(self, motor_values: np.ndarray) -> np.ndarray:
+        """[29] in motor order -> [J] in the policy's order."""
+        return np.asarray(motor_values)[self.motor_index]
+
+    def to_motors(self, policy_values: np.ndarray, fill: np.ndarray) -> np.ndarray:
+        """[J] in the policy's order -> [29] in motor order, ``fill`` (a [29] array) for the joints not driven."""
+        out = np.array(fill, dtype=np.float64, copy=True)
+        out[self.motor_index] = policy_values
+        return out

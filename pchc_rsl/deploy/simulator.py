@@ -1,0 +1,90 @@
+"""A simulated G1 that is commanded like the real one: the full 29-DoF menagerie model, every motor driven by its
+own PD law recomputed from the latest rt/lowcmd at every physics step (never a torque held between commands, the
+known fault of Python bridges), clipped to the motor's limit, with optional command latency and jitter and an
+optional hold-up band for the start (the robot hangs from a gantry while its motors are off and ramping)."""
+
+from __future__ import annotations
+
+import collections
+
+import mujoco
+import numpy as np
+
+from pchc_rsl.deploy.g1_motors import MOTOR_DEFAULT_POS, MOTOR_EFFORT_LIMIT, MOTOR_JOINTS, NUM_MOTORS
+from pchc_rsl.deploy.robot_io import MotorCommand, RobotState
+from pchc_rsl.robots.g1.constants import STANDING_HEIGHT
+from pchc_rsl.robots.g1.model import build_g1_model
+
+FALL_HEIGHT = 0.45
+"""Pelvis height (m) under which the robot counts as fallen (the walking task's termination height)."""
+
+
+class SimulationDiverged(RuntimeError):
+    """The physics blew up (MuJoCo resets the state, which would silently restart the clock)."""
+
+
+class G1Simulator:
+    """``apply(cmd, at)`` queues a command, ``step()`` advances one physics step, ``state()`` reads the sensors."""
+
+    def __init__(self, timestep: float = 0.002, latency_s: float = 0.0, jitter_s: float = 0.0,
+                 hold_up_s: float = 0.0, seed: int = 0, visual: bool = False) -> None:
+        self.model = build_g1_model(MOTOR_JOINTS, timestep=timestep, torque_control=True, visual=visual)
+        self.data = mujoco.MjData(self.model)
+        self.latency_s, self.jitter_s, self.hold_up_s = latency_s, jitter_s, hold_up_s
+        self.rng = np.random.default_rng(seed)
+        self.pelvis = self.model.body("pelvis").id
+        self.data.qpos[2] = STANDING_HEIGHT
+        self.data.qpos[7:] = MOTOR_DEFAULT_POS
+        mujoco.mj_forward(self.model, self.data)
+        self.start_pos = self.data.qpos[:3].copy()
+        self.pending: collections.deque[tuple[float, MotorCommand]] = collections.deque()
+        self.command = MotorCommand(mode=np.zeros(NUM_MOTORS, dtype=np.uint8))  # motors off until told
+        self.fell = False
+        self.steps = 0
+
+    @property
+    def time(self) -> float:
+        return float(self.data.time)
+
+    def apply(self, command: MotorCommand) -> None:
+        """Queue a command; it takes effect after the latency (plus a uniform jitter), in arrival order."""
+        delay = self.latency_s + (self.rng.uniform(0.0, self.jitter_s) if self.jitter_s > 0 else 0.0)
+        release = self.time + delay
+        if self.pending and release < self.pending[-1][0]:
+            release = self.pending[-1][0]  # a later command never overtakes an earlier one
+        self.pending.append((release, command))
+
+    def step(self) -> None:
+        while self.pending and self.pending[0][0] <= self.time + 1e-9:
+            self.command = self.pending.popleft()[1]
+        d = self.data
+        d.ctrl[:] = self.command.torque(d.qpos[7:], d.qvel[6:], MOTOR_EFFORT_LIMIT)
+        d.xfrc_applied[self.pelvis] = self._band() if self.time < self.hold_up_s else 0.0
+        mujoco.mj_step(self.model, d)
+        if d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > 0:
+            raise SimulationDiverged(f"the G1 simulation diverged at t = {self.time:.3f} s (MuJoCo reset it); "
+                                     "a smaller --timestep or softer gains fix this")
+        self.steps += 1
+        if self.time >= self.hold_up_s and d.qpos[2] < FALL_HEIGHT:
+            self.fell = True
+
+    def _band(self) -> np.ndarray:
+        """A stiff spring-damper holding the pelvis at its start pose (force and torque, world frame)."""
+        d = self.data
+        force = 10000.0 * (self.start_pos - d.qpos[:3]) - 1000.0 * d.qvel[:3]
+        error = np.zeros(3)
+        mujoco.mju_subQuat(error, np.array([1.0, 0, 0, 0]), d.qpos[3:7])
+        torque = 200.0 * error - 10.0 * d.qvel[3:6]
+        return np.concatenate([force, torque])
+
+    def state(self) -> RobotState:
+        d = self.data
+        return RobotState(q=d.qpos[7:].copy(), dq=d.qvel[6:].copy(), tau=d.actuator_force.copy(),
+                          quat=d.qpos[3:7].copy(), gyro=d.qvel[3:6].copy(), tick=int(round(self.time * 1000)))
+
+    def base_position(self) -> np.ndarray:
+        return self.data.qpos[:3].copy()
+
+    def distance_travelled(self) -> float:
+        """Horizontal distance of the pelvis from where it started (m)."""
+        return float(np.linalg.norm(self.data.qpos[:2] - self.start_pos[:2]))
