@@ -92,7 +92,7 @@ def deploy(args, seconds: float | None, command: float) -> dict:
                           hold_up_s=args.hold_up)
         run = Deployment(policy, InProcessRobot(sim, policy.control_period), preference, command, auto)
         run.run(seconds)
-        return run.report() | {"fell": bool(sim.fell), "base_distance": round(sim.distance_travelled(), 4)}
+        return with_fall(run.report(), sim.fell, sim.driven_distance())
 
     from pchc_rsl.deploy.sdk import DdsRobot
 
@@ -130,8 +130,15 @@ def deploy(args, seconds: float | None, command: float) -> dict:
     if bridge_report is not None and os.path.exists(bridge_report):
         with open(bridge_report) as f:
             sim_report = json.load(f)
-        report |= {"fell": sim_report["fell"], "base_distance": sim_report["base_distance"], "bridge": sim_report}
+        report = with_fall(report, sim_report["fell"], sim_report["base_distance"]) | {"bridge": sim_report}
     return report
+
+
+def with_fall(report: dict, fell_in_sim: bool, distance: float) -> dict:
+    """The simulated robot fell: its pelvis dropped before damping, or the watchdog damped it for a tilt (it was
+    falling; the pelvis may reach the ground only after the damping began)."""
+    fell = bool(fell_in_sim) or report["reason"].startswith("tilt")
+    return report | {"fell": fell, "base_distance": round(float(distance), 4)}
 
 
 if __name__ == "__main__":

@@ -218,6 +218,10 @@ class Deployment:
                "policy_seconds": round(self.robot.now() - self.policy_since, 3) if self.policy_since is not None else 0,
                "messages_received": int(self.robot.received), "messages_sent": int(self.robot.sent),
                "events": self.record.events}
+        if self.record.trajectory:
+            _, q = policy_trajectory(self.record)
+            out["policy_joint_mean"] = [round(float(x), 4) for x in q.mean(0)]  # the posture, to compare runs
+            out["policy_joint_std"] = [round(float(x), 4) for x in q.std(0)]  # how much each joint swings
         if self.robot.loop is not None:
             out["loop"] = self.robot.loop.summary()
         return out

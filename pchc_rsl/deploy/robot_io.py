@@ -49,6 +49,11 @@ class MotorCommand:
     tau: np.ndarray = field(default_factory=lambda: np.zeros(NUM_MOTORS))
     mode: np.ndarray = field(default_factory=lambda: np.ones(NUM_MOTORS, dtype=np.uint8))
 
+    def is_damping(self) -> bool:
+        """kp 0 and kd > 0 on every enabled motor: the safe state a deploy ends in."""
+        on = self.mode > 0
+        return bool(on.any() and (self.kp[on] == 0).all() and (self.kd[on] > 0).all())
+
     def torque(self, q: np.ndarray, dq: np.ndarray, limit: np.ndarray) -> np.ndarray:
         """What a G1 motor applies for this command at (q, dq): the PD law plus tau, clipped; 0 where disabled."""
         tau = self.kp * (self.q - q) + self.kd * (self.dq - dq) + self.tau

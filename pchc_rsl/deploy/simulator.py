@@ -39,8 +39,19 @@ class G1Simulator:
         self.start_pos = self.data.qpos[:3].copy()
         self.pending: collections.deque[tuple[float, MotorCommand]] = collections.deque()
         self.command = MotorCommand(mode=np.zeros(NUM_MOTORS, dtype=np.uint8))  # motors off until told
-        self.fell = False
+        self.fell_at: float | None = None  # sim time the pelvis first dropped below FALL_HEIGHT
+        self.damped_at: float | None = None  # sim time the first damping command took effect
+        self.distance_at_damping: float | None = None
         self.steps = 0
+
+    @property
+    def fell(self) -> bool:
+        """The robot fell while it was driven: before any damping command (damping lets it sink on purpose)."""
+        return self.fell_at is not None and (self.damped_at is None or self.fell_at < self.damped_at)
+
+    def driven_distance(self) -> float:
+        """How far the pelvis went before damping (m): what the policy walked."""
+        return self.distance_at_damping if self.distance_at_damping is not None else self.distance_travelled()
 
     @property
     def time(self) -> float:
@@ -57,6 +68,8 @@ class G1Simulator:
     def step(self) -> None:
         while self.pending and self.pending[0][0] <= self.time + 1e-9:
             self.command = self.pending.popleft()[1]
+            if self.damped_at is None and self.command.is_damping():
+                self.damped_at, self.distance_at_damping = self.time, self.distance_travelled()
         d = self.data
         d.ctrl[:] = self.command.torque(d.qpos[7:], d.qvel[6:], MOTOR_EFFORT_LIMIT)
         d.xfrc_applied[self.pelvis] = self._band() if self.time < self.hold_up_s else 0.0
@@ -65,8 +78,8 @@ class G1Simulator:
             raise SimulationDiverged(f"the G1 simulation diverged at t = {self.time:.3f} s (MuJoCo reset it); "
                                      "a smaller --timestep or softer gains fix this")
         self.steps += 1
-        if self.time >= self.hold_up_s and d.qpos[2] < FALL_HEIGHT:
-            self.fell = True
+        if self.time >= self.hold_up_s and d.qpos[2] < FALL_HEIGHT and self.fell_at is None:
+            self.fell_at = self.time
 
     def _band(self) -> np.ndarray:
         """A stiff spring-damper holding the pelvis at its start pose (force and torque, world frame)."""
