@@ -34,6 +34,16 @@ class Pushes:
         """Largest base deviation from the reference in the current window, m."""
         self.max_com_deviation = torch.zeros(n, device=self.device)
         """Largest whole-body COM deviation from the reference in the current window, m."""
+        self.next_speed = torch.full((n,), math.nan, device=self.device)
+        self.next_angle = torch.full((n,), math.nan, device=self.device)
+        """A requested push's speed (m/s) and direction (rad, world frame); NaN: drawn from the config."""
+
+    def request(self, env_id: int, speed: float | None = None, angle: float | None = None) -> None:
+        """Push env ``env_id`` at its next counting step (the web viewer's push button), at this speed and angle
+        instead of drawn ones where given."""
+        self.countdown[env_id] = 1
+        self.next_speed[env_id] = math.nan if speed is None else speed
+        self.next_angle[env_id] = math.nan if angle is None else angle
 
     def _uniform(self, n: int, low: float, high: float) -> torch.Tensor:
         return low + (high - low) * torch.rand(n, generator=self.generator, device=self.device)
@@ -69,8 +79,11 @@ class Pushes:
             return
         n = len(ids)
         angle = self._uniform(n, 0.0, 2 * math.pi)
-        direction = torch.stack([angle.cos(), angle.sin()], -1)
         speed = self._uniform(n, *self.cfg.velocity)
+        angle = torch.where(self.next_angle[ids].isnan(), angle, self.next_angle[ids])  # a requested push
+        speed = torch.where(self.next_speed[ids].isnan(), speed, self.next_speed[ids])
+        self.next_speed[ids], self.next_angle[ids] = math.nan, math.nan
+        direction = torch.stack([angle.cos(), angle.sin()], -1)
         physics.qvel[ids, :2] += speed.unsqueeze(-1) * direction  # the free joint's world-frame linear velocity
         self.direction[ids] = direction
         self.origin[ids] = robot.base_pos[ids, :2]

@@ -360,3 +360,41 @@ def test_the_shipped_walker_walks_10_s_over_dds_as_in_process(tmp_path, preferen
     assert rms(local["policy_joint_mean"], dds["policy_joint_mean"]) < 0.05
     assert rms(local["policy_joint_std"], dds["policy_joint_std"]) < 0.03
     assert abs(dds["base_distance"] - local["base_distance"]) < 0.35 * local["base_distance"]
+
+
+def test_the_browser_console_steers_a_deploy():
+    """The console's widgets (set as the page sets them) reach the deploy loop: start, lambda, command, policy."""
+    pytest.importorskip("viser")
+    import socket
+
+    from pchc_rsl.deploy.web_console import DeployConsole
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    console = DeployConsole(["disturbance", "stride"], [0.5, 0.5], 0.5, port=port)
+    try:
+        robot = FakeRobot()
+        run = fake_deployment(robot)
+        run.auto = None  # only the console drives it
+        run.inputs = [console]
+        run.tick()
+        assert run.safety.mode is Mode.ZERO_TORQUE
+        console.buttons["s"].value = True  # a click
+        run.tick()
+        assert run.safety.mode is Mode.RAMP
+        console.preference_sliders[0].value = 0.8
+        console.command_slider.value = 0.3
+        for _ in range(int(RAMP_S / 0.02) + 2):
+            robot.wait_tick()
+            run.tick()
+        assert run.preference.value.tolist() == pytest.approx([0.2, 0.8]) and run.command.value[0] == 0.3
+        console.buttons["p"].value = True
+        run.tick()
+        assert run.safety.mode is Mode.POLICY
+        for _ in range(15):  # the console's status is refreshed 4 times a second
+            robot.wait_tick()
+            run.tick()
+        assert "policy" in console.status.content and "stride **0.80**" in console.preference_text.content
+    finally:
+        console.close()

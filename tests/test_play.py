@@ -229,8 +229,19 @@ def test_no_display_and_no_video_says_what_to_do(monkeypatch):
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
     monkeypatch.setattr(sys, "platform", "linux")
     with pytest.raises(SystemExit) as error:
-        play.main(["model.pt"])
-    assert "Pass --video" in str(error.value) and "xvfb-run" in str(error.value)
+        play.main(["model.pt", "--viewer", "native"])
+    assert "--viewer web" in str(error.value) and "--video" in str(error.value)
+
+
+def test_without_a_display_the_viewer_is_the_web_page(monkeypatch):
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    monkeypatch.setattr(sys, "platform", "linux")
+    calls = []
+    monkeypatch.setattr(play, "watch_in_browser", lambda checkpoint, preference, args: calls.append(checkpoint))
+    monkeypatch.setattr(play, "watch_checkpoint", lambda *args: pytest.fail("the native viewer needs a display"))
+    play.main(["model.pt"])
+    assert calls == ["model.pt"]
 
 
 def test_the_toy_has_no_viewer_but_a_plot(toy_checkpoint, monkeypatch):

@@ -46,12 +46,16 @@ def main(argv: list[str] | None = None) -> None:
                         "messages sent and received, loop overruns, the mode changes)")
     add_simulation_arguments(parser)
     parser.add_argument("--sim-viewer", action="store_true", help="--sim: show the bridge's MuJoCo viewer")
+    parser.add_argument("--web", type=int, metavar="PORT", help="also serve a browser console on 127.0.0.1:PORT "
+                        "(lambda and command sliders, start / policy / damping buttons; the pchc-rsl[web] extra)")
     parser.add_argument("-v", "--verbose", action="store_true", help="tracebacks instead of one-line errors")
     args = parser.parse_args(argv)
     if not os.path.isfile(args.policy):
         parser.error(f"no policy file at {args.policy}")
     if args.report and os.path.isdir(args.report):
         parser.error(f"--report {args.report} is a folder; give a file such as {args.report}/deploy.json")
+    if args.web is not None and args.mujoco:
+        parser.error("--web steers a deploy that runs in real time: use it with --sim or --network")
     simulated = args.sim or args.mujoco
     seconds = args.seconds if args.seconds is not None or not simulated else 10.0
     command = args.command if args.command is not None else (0.5 if simulated else 0.0)
@@ -107,13 +111,21 @@ def deploy(args, seconds: float | None, command: float) -> dict:
             + (["--viewer"] if args.sim_viewer else []))
     else:
         domain, interface = args.domain, args.network
-    keys = None
+    keys = console = None
     try:
         dds = DdsRobot(domain, interface)
         keys = KeyReader()
-        if keys._saved is not None:
+        if keys.active:
             print(f"{PROG}: {KEY_HELP}", flush=True)
-        run = Deployment(policy, WallClockRobot(dds, policy.control_period), preference, command, auto, keys)
+        inputs = [keys]
+        if args.web is not None:
+            from pchc_rsl.deploy.web_console import DeployConsole
+
+            console = DeployConsole(policy.objective_names, preference, command if policy.uses_command else None,
+                                    port=args.web)
+            inputs.append(console)
+            print(f"{PROG}: console at {console.url}", flush=True)
+        run = Deployment(policy, WallClockRobot(dds, policy.control_period), preference, command, auto, inputs)
         run.run(seconds, no_state_hint=f" on interface {interface}, DDS domain {domain}"
                 + ("" if args.sim else "; is the robot on, in debug mode (L2+R2), and on that interface?"))
         report = run.report()
@@ -121,6 +133,8 @@ def deploy(args, seconds: float | None, command: float) -> dict:
     finally:
         if keys is not None:
             keys.close()
+        if console is not None:
+            console.close()
         if bridge is not None:
             bridge.terminate()
             try:

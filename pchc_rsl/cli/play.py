@@ -42,6 +42,13 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--fps", type=float, default=25.0, help="video frames per second of simulated time")
     parser.add_argument("--push-every", type=float, metavar="S",
                         help="push every S seconds (default: the evaluation preset's; 0: only on key press)")
+    parser.add_argument("--viewer", choices=["native", "web"],
+                        help="without --video: MuJoCo's window (native, needs a display) or a page in the browser "
+                        "(web: viser; works over an SSH tunnel). Default: native with a display, web without")
+    parser.add_argument("--host", default=None, help="web viewer: address to bind (default 127.0.0.1, this machine "
+                        "only; reach it from elsewhere with ssh -L 8080:127.0.0.1:8080 HOST)")
+    parser.add_argument("--port", type=int, default=None, help="web viewer: port (default 8080)")
+    parser.add_argument("--speed", type=float, default=1.0, help="web viewer: simulation speed, x real time")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("-v", "--verbose", action="store_true", help="print error tracebacks")
     return parser
@@ -58,20 +65,26 @@ def main(argv: list[str] | None = None) -> None:
         check_arguments(args)
     except ValueError as error:
         raise SystemExit(f"pchc-play: {error}") from None
-    if args.video is None and not has_display():
-        raise SystemExit("pchc-play: no display for the interactive viewer (DISPLAY is not set). Pass --video "
-                         "FILE.mp4 to render offscreen, or run under a display (e.g. xvfb-run -a pchc-play ...).")
+    viewer = args.viewer or ("native" if has_display() else "web")
+    if args.video is None and viewer == "native" and not has_display():
+        raise SystemExit("pchc-play: no display for the native viewer (DISPLAY is not set). Use --viewer web (a "
+                         "page in the browser), --video FILE.mp4 to render offscreen, or run under a display.")
+    if args.video is not None and args.viewer is not None:
+        raise SystemExit("pchc-play: --viewer shows the policy live; --video writes a file instead: pass one of them.")
     if args.video is not None and not has_display():
         os.environ.setdefault("MUJOCO_GL", "egl")  # headless offscreen rendering; read when mujoco is imported
     from pchc_rsl.envs.g1_render import RenderingUnavailable
+    from pchc_rsl.web_viewer import WebViewerUnavailable
 
     try:
         if args.video:
             path = record_checkpoint_video(args.checkpoint, preferences, args.video, args)
             print(f"pchc-play: wrote {path}")
+        elif viewer == "web":
+            watch_in_browser(args.checkpoint, preferences[0], args)
         else:
             watch_checkpoint(args.checkpoint, preferences[0], args)
-    except (RenderingUnavailable, ValueError, FileNotFoundError) as error:
+    except (RenderingUnavailable, WebViewerUnavailable, ValueError, FileNotFoundError) as error:
         if args.verbose:
             raise
         raise SystemExit(f"pchc-play: {error}") from None
@@ -106,6 +119,10 @@ def check_arguments(args) -> None:
         raise ValueError(f"--push-every {args.push_every}: must be >= 0 seconds (0: push only on key press).")
     if not args.fps > 0:
         raise ValueError(f"--fps {args.fps}: must be > 0, e.g. --fps 25.")
+    if args.port is not None and not 0 < args.port < 65536:
+        raise ValueError(f"--port {args.port}: must be a TCP port in [1, 65535], e.g. --port 8080.")
+    if not 0 < args.speed <= 10:
+        raise ValueError(f"--speed {args.speed}: must be in (0, 10], e.g. --speed 0.5 for half speed.")
 
 
 # ---------------------------------------------------------------------------- the env and policy of a checkpoint
@@ -311,6 +328,29 @@ class LiveControls:
             elif action == "reset":
                 env.reset()
         return changed
+
+
+def watch_in_browser(checkpoint: str, preference, args) -> None:
+    """The policy in a page served by viser on --host:--port, until Ctrl-C (or --seconds of simulation)."""
+    from pchc_rsl.evaluation import TASK_EVALUATION
+    from pchc_rsl.web_viewer import DEFAULT_HOST, DEFAULT_PORT, WebViewer, check_port, require_viser
+
+    host, port = args.host or DEFAULT_HOST, args.port or DEFAULT_PORT
+    require_viser()
+    check_port(host, port)  # before the checkpoint loads: a taken port is known at once
+    print(f"pchc-play: loading {checkpoint}...", flush=True)
+    task, env, policy = load_policy(checkpoint, 1, args.seed, 1e6, args.push_every, args.overrides)
+    check_objectives(env, [preference], checkpoint)
+    evaluation = TASK_EVALUATION.get(task)
+    viewer = WebViewer(env, policy, task, preference, host, port, args.speed,
+                       pushes=evaluation.pushes if evaluation is not None else {})
+    print(f"pchc-play: open {viewer.url} in a browser (on another machine: ssh -L {port}:{host}:{port} THIS_HOST, "
+          f"then http://localhost:{port}); Ctrl-C stops", flush=True)
+    try:
+        viewer.run(args.seconds)
+    finally:
+        viewer.close()
+    print(f"pchc-play: stopped after {viewer.steps * viewer.dt:.1f} s at lambda {tuple(env.preference[0].tolist())}")
 
 
 def watch_checkpoint(checkpoint: str, preference, args) -> None:

@@ -11,7 +11,7 @@ import numpy as np
 
 from pchc_rsl.deploy.fixed_rate import FixedRateLoop
 from pchc_rsl.deploy.g1_motors import MOTOR_DEFAULT_POS, MOTOR_HOLD_KD, MOTOR_HOLD_KP
-from pchc_rsl.deploy.live_controls import Command, KeyReader, Preference, RemoteEdges
+from pchc_rsl.deploy.live_controls import Command, Preference, RemoteEdges
 from pchc_rsl.deploy.policy_step import PolicyStep
 from pchc_rsl.deploy.robot_io import MotorCommand, Remote, RobotState
 from pchc_rsl.deploy.safety import Mode, SafetyStateMachine
@@ -102,8 +102,10 @@ class DeployLog:
 
 class Deployment:
     def __init__(self, policy: PolicyStep, robot, preference, command: float = 0.0, auto: AutoSequence | None = None,
-                 keys: KeyReader | None = None, log=print) -> None:
-        self.policy, self.robot, self.auto, self.keys, self.log = policy, robot, auto, keys, log
+                 inputs: list = (), log=print) -> None:
+        """``inputs``: sources with ``pending()`` -> keys ('s', 'p', ...) or (name, value) settings: the terminal's
+        KeyReader, the browser console."""
+        self.policy, self.robot, self.auto, self.inputs, self.log = policy, robot, auto, list(inputs), log
         joints = policy.joints
         kp, kd = MOTOR_HOLD_KP.copy(), MOTOR_HOLD_KD.copy()
         kp[joints.motor_index], kd[joints.motor_index] = policy.kp, policy.kd
@@ -116,10 +118,11 @@ class Deployment:
         self.quit_requested = False
         self.policy_since: float | None = None
         self.started = robot.now()
+        self._shown = -1.0
 
     # ------------------------------------------------------------------ input
     def _operator(self, state: RobotState | None, now: float) -> None:
-        actions = list(self.keys.pending()) if self.keys is not None else []
+        actions = [action for source in self.inputs for action in source.pending()]
         if state is not None:
             pressed = self.remote.pressed(Remote.parse(state.remote).buttons)
             names = {"start": "s", "A": "p", "select": "d", "B": "d", "L1": "[", "R1": "]", "up": "w", "down": "x"}
@@ -128,10 +131,22 @@ class Deployment:
             self._act(key, state, now)
         if self.auto is not None:
             self.auto.request(self.safety, state, now)
+        if now - self._shown >= 0.25:
+            command = float(self.command.value[0]) if self.policy.uses_command else None
+            for source in self.inputs:
+                if hasattr(source, "show"):
+                    source.show(self.safety.mode.value, self.safety.reason, self.preference.value, command)
+            self._shown = now
 
     def _act(self, key: str, state: RobotState | None, now: float) -> None:
         before = (str(self.preference), str(self.command))
-        if key == "s":
+        if isinstance(key, tuple):  # a setting from the browser console
+            name, value = key
+            if name == "preference":
+                self.preference.value = np.asarray(value, float)
+            elif name == "command":
+                self.command.change(float(value) - self.command.value[0])
+        elif key == "s":
             self.safety.request(Mode.RAMP, now, state)
         elif key == "p":
             self.safety.request(Mode.POLICY, now, state)

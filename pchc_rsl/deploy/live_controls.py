@@ -78,6 +78,11 @@ class KeyReader:
                 return
             self.events.put(key)
 
+    @property
+    def active(self) -> bool:
+        """Reading a terminal (stdin is one)."""
+        return self._saved is not None
+
     def pending(self) -> list[str]:
         keys = []
         while not self.events.empty():

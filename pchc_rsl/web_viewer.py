@@ -1,0 +1,296 @@
+"""Watch and steer a policy from a browser: the full visual G1 (viser, with mjviser converting the MuJoCo scene)
+posed from the physics state in real time, lambda on a slider, the command, pushes, reset, pause, step and speed,
+and live panels of each objective's reward and the task's metrics. Works over an SSH tunnel from a headless server,
+which MuJoCo's native viewer does not.
+
+GUI callbacks run on viser's thread; they only queue actions, which the simulation loop applies between policy
+steps (as the native viewer's keys do).
+"""
+
+from __future__ import annotations
+
+import collections
+import math
+import socket
+import threading
+import time
+
+import numpy as np
+
+DEFAULT_HOST = "127.0.0.1"
+DEFAULT_PORT = 8080
+HISTORY_S = 5.0
+"""The reward panel shows this many seconds."""
+PANEL_EVERY_S = 0.25
+"""Refresh the panels this often."""
+SCENE_EVERY_S = 1 / 30
+"""Pose the scene at most 30 times a second: every update makes the browser render a frame, which is what costs
+on a machine without a GPU (software WebGL)."""
+PUSH_DIRECTIONS = {"random": None, "forward": 0.0, "left": math.pi / 2, "backward": math.pi, "right": -math.pi / 2}
+"""Push directions relative to the robot's heading (rad); None: a random world direction."""
+
+
+class WebViewerUnavailable(RuntimeError):
+    """viser (or mjviser) is missing, or the port cannot be used; the message says what to do."""
+
+
+def require_viser():
+    try:
+        import viser
+        from mjviser import ViserMujocoScene
+    except ImportError as error:
+        raise WebViewerUnavailable(f"the web viewer needs viser and mjviser ({error}); install the extra: "
+                                   "pip install 'pchc-rsl[web]'") from None
+    return viser, ViserMujocoScene
+
+
+def check_port(host: str, port: int) -> None:
+    """Fail in one line if ``port`` is taken (viser would silently move to the next one), suggesting a free one."""
+    with socket.socket() as probe:
+        try:
+            probe.bind((host, port))
+            return
+        except OSError:
+            pass
+    with socket.socket() as spare:
+        spare.bind((host, 0))
+        free = spare.getsockname()[1]
+    raise WebViewerUnavailable(f"port {port} on {host} is in use (another viewer?); pass --port {free}, which is "
+                               "free now")
+
+
+def preference_from_sliders(values) -> list[float]:
+    """Slider positions -> lambda on the simplex. One slider (two objectives) is lambda_2: t -> (1 - t, t). One
+    slider per objective: their values renormalised to sum to 1 (all at 0: the middle of the simplex)."""
+    values = [min(1.0, max(0.0, float(v))) for v in values]
+    if len(values) == 1:
+        return [1.0 - values[0], values[0]]
+    total = sum(values)
+    return [v / total for v in values] if total > 0 else [1.0 / len(values)] * len(values)
+
+
+def add_preference_controls(gui, names: list[str], initial, on_change):
+    """lambda's slider (one for two objectives, one per objective otherwise, renormalised) and a line that shows it;
+    ``on_change(preference)`` runs on viser's thread. Returns (the sliders, the markdown handle of that line)."""
+    if len(names) == 2:
+        sliders = [gui.add_slider(f"{names[0]} <-> {names[1]}", 0.0, 1.0, 0.05, float(initial[1]),
+                                  hint=f"lambda = (1 - t, t): left favours {names[0]}, right {names[1]}")]
+    else:
+        sliders = [gui.add_slider(name, 0.0, 1.0, 0.05, float(value)) for name, value in zip(names, initial)]
+    for s in sliders:
+        s.on_update(lambda _: on_change(preference_from_sliders([x.value for x in sliders])))
+    return sliders, gui.add_markdown(preference_markdown(names, initial))
+
+
+def preference_markdown(names: list[str], preference) -> str:
+    return "lambda = (" + ", ".join(f"{n} **{float(v):.2f}**" for n, v in zip(names, preference)) + ")"
+
+
+def add_command_control(gui, initial: float, on_change):
+    """The walking command's forward speed, as the walking task trains it (0 to 1 m/s)."""
+    command = gui.add_slider("forward speed (m/s)", 0.0, 1.0, 0.05, float(initial))
+    command.on_update(lambda _: on_change(command.value))
+    return command
+
+
+class WebViewer:
+    """One env (env 0) of a checkpoint's evaluation env, its policy, and the page that shows and steers it."""
+
+    def __init__(self, env, policy, task: str, preference, host: str = DEFAULT_HOST, port: int = DEFAULT_PORT,
+                 speed: float = 1.0, pushes: dict | None = None) -> None:
+        import torch
+
+        viser, ViserMujocoScene = require_viser()
+        check_port(host, port)
+        self.env, self.policy, self.task = env, policy, task
+        self.is_g1 = hasattr(env, "physics")
+        self.dt = float(env.dt) if self.is_g1 else 0.1
+        self.speed, self.paused, self.steps_requested = speed, False, 0
+        self.pushes = pushes or {}
+        self.pending: collections.deque = collections.deque()
+        self.lock = threading.Lock()
+        self.falls = self.steps = self.pushes_done = 0
+        self.history = collections.deque(maxlen=max(2, round(HISTORY_S / self.dt)))
+        self.server = viser.ViserServer(host=host, port=port, verbose=False)
+        self.url = f"http://{host}:{self.server.get_port()}"
+        env.set_preference(torch.tensor(preference, dtype=torch.float32))
+        env.reset()
+        self.obs = env.get_observations()
+        if self.is_g1:
+            import mujoco
+
+            from pchc_rsl.envs.g1_render import visual_model
+
+            self.model = visual_model(env)
+            self.data = mujoco.MjData(self.model)
+            self.scene = ViserMujocoScene(self.server, self.model, num_envs=1)  # follows the pelvis: it stays at 0
+            self.server.initial_camera.position = (2.2, -2.2, 0.5)
+            self.server.initial_camera.look_at = (0.0, 0.0, -0.25)
+            self.plot = None
+        else:
+            from pchc_rsl.envs.toy_render import ToyPlot
+
+            self.scene, self.plot = None, ToyPlot(env, 480, 360)
+            self.plot.record()
+        self._build_gui()
+        self._show()
+
+    # ------------------------------------------------------------------ the page
+    def _build_gui(self) -> None:
+        gui, env = self.server.gui, self.env
+        names = list(env.cfg.objective_names)
+        if self.plot is not None:
+            self.picture = gui.add_image(self.plot.render(env, 0), label="trajectory")
+        with gui.add_folder("Preference lambda"):
+            self.preference_sliders, self.preference_text = add_preference_controls(
+                gui, names, env.preference[0].tolist(), lambda lam: self.queue("preference", lam))
+        if getattr(env.cfg, "use_command", False):
+            with gui.add_folder("Command"):
+                add_command_control(gui, float(env.commands[0, 0]), lambda v: self.queue("command", v))
+        if self.is_g1:
+            with gui.add_folder("Push"):
+                strength = gui.add_dropdown("strength", tuple(self.pushes) or ("preset",))
+                direction = gui.add_dropdown("direction", tuple(PUSH_DIRECTIONS))
+                self.push_button = gui.add_button("Push")
+                self.push_button.on_click(lambda _: self.queue("push", (strength.value, direction.value)))
+        with gui.add_folder("Run"):
+            gui.add_button("Reset").on_click(lambda _: self.queue("reset"))
+            pause = gui.add_checkbox("Pause", False)
+            pause.on_update(lambda _: self.queue("pause", pause.value))
+            gui.add_button("Step").on_click(lambda _: self.queue("step"))
+            speed = gui.add_slider("speed (x real time)", 0.1, 2.0, 0.1, self.speed)
+            speed.on_update(lambda _: self.queue("speed", speed.value))
+        series = [{"label": "t (s)"}, {"label": "task", "stroke": "gray"}]
+        colors = ["tab:blue", "tab:orange", "tab:green", "tab:red"]
+        css = {"tab:blue": "#1f77b4", "tab:orange": "#ff7f0e", "tab:green": "#2ca02c", "tab:red": "#d62728"}
+        series += [{"label": n, "stroke": css[colors[i % 4]]} for i, n in enumerate(names)]
+        empty = tuple(np.zeros(2) for _ in series)
+        self.reward_plot = gui.add_uplot(empty, tuple(series), title="rewards per step", aspect=1.6)
+        self.metrics_text = gui.add_markdown("")
+
+
+    # ------------------------------------------------------------------ controls (any thread)
+    def queue(self, action: str, value=None) -> None:
+        with self.lock:
+            self.pending.append((action, value))
+
+    def set_preference_sliders(self, values) -> None:
+        self.queue("preference", preference_from_sliders(values))
+
+    def apply_pending(self) -> bool:
+        """Apply the queued actions to the env; True if the policy needs fresh observations."""
+        import torch
+
+        changed = False
+        with self.lock:
+            actions = list(self.pending)
+            self.pending.clear()
+        for action, value in actions:
+            env = self.env
+            if action == "preference":
+                env.set_preference(torch.tensor(value, dtype=torch.float32))
+                changed = True
+            elif action == "command":
+                env.commands[0, 0] = float(value)
+                changed = True
+            elif action == "push":
+                self._push(*value)
+            elif action == "reset":
+                env.reset()
+                self.history.clear()
+                changed = True
+            elif action == "pause":
+                self.paused = bool(value)
+            elif action == "step":
+                self.steps_requested += 1
+            elif action == "speed":
+                self.speed = float(value)
+        if changed:
+            self.obs = self.env.get_observations()
+        return changed
+
+    def _push(self, strength: str, direction: str) -> None:
+        from pchc_rsl.envs.g1_robot_state import yaw_of
+
+        speed = self.pushes[strength][0] if strength in self.pushes else None
+        offset = PUSH_DIRECTIONS[direction]
+        angle = None if offset is None else float(yaw_of(self.env.robot.base_quat[:1])[0]) + offset
+        self.env.pushes.request(0, speed, angle)
+        self.pushes_done += 1
+
+    # ------------------------------------------------------------------ simulation
+    def step(self) -> None:
+        import torch
+
+        with torch.inference_mode():
+            self.obs, _, _, extras = self.env.step(self.policy(self.obs))
+        self.steps += 1
+        finished = extras.get("episode_metrics")
+        if finished is not None and len(finished["env_ids"]):
+            self.falls += int(finished["fell"].sum())
+        groups = extras.get("reward_groups")
+        if groups is None and hasattr(self.env, "objective_rewards"):  # the toy: its objectives are the rewards
+            groups = torch.cat([torch.zeros(1, 1), self.env.objective_rewards()[:1]], dim=-1)
+        if groups is not None:
+            self.history.append((self.steps * self.dt, *groups[0].tolist()))
+        if self.plot is not None:
+            self.plot.record()
+
+    def _show(self) -> None:
+        """Pose the scene from the physics state (or redraw the toy's plot)."""
+        if self.scene is not None:
+            import mujoco
+
+            self.data.qpos[:] = self.env.physics.qpos[0].cpu().numpy()
+            mujoco.mj_forward(self.model, self.data)
+            self.scene.update_from_mjdata(self.data)
+
+    def _panels(self) -> None:
+        from pchc_rsl.cli.play import live_metrics
+
+        self.preference_text.content = preference_markdown(self.env.cfg.objective_names,
+                                                           self.env.preference[0].tolist())
+        if self.history:
+            columns = np.array(self.history).T
+            self.reward_plot.data = tuple(columns)
+        rows = live_metrics(self.env, 0, self.falls)
+        if self.is_g1:
+            import torch
+
+            metrics = {k: float(v[0]) for k, v in self.env.episode_metrics(torch.tensor([0])).items()}
+            extra = {"forward_step": ("forward step", "m"), "cadence": ("cadence", "/s per foot"),
+                     "air_time": ("air time", "s"), "forward_speed": ("forward speed", "m/s"),
+                     "energy_overall": ("energy", "J/s")}
+            shown = {name for name, _ in rows}
+            rows += [(label, f"{metrics[k]:.2f} {unit}") for k, (label, unit) in extra.items()
+                     if k in metrics and not math.isnan(metrics[k]) and label not in shown]
+            rows.append(("pushes", str(self.pushes_done)))
+        rows.append(("time", f"{self.steps * self.dt:.1f} s" + (" (paused)" if self.paused else "")))
+        self.metrics_text.content = "\n".join(f"- {name}: **{value}**" for name, value in rows)
+        if self.plot is not None:
+            self.picture.image = self.plot.render(self.env, 0)
+
+    def run(self, seconds: float | None = None, stop: threading.Event | None = None) -> None:
+        """Step in real time (times the speed slider) until ``seconds`` of simulation or ``stop``; Ctrl-C ends it."""
+        stop = stop or threading.Event()
+        last_panel = last_scene = 0.0
+        try:
+            while not stop.is_set() and (seconds is None or self.steps * self.dt < seconds):
+                start = time.perf_counter()
+                self.apply_pending()
+                if not self.paused or self.steps_requested:
+                    self.steps_requested = max(0, self.steps_requested - 1)
+                    self.step()
+                    if start - last_scene >= SCENE_EVERY_S or self.paused:
+                        self._show()
+                        last_scene = start
+                if start - last_panel >= PANEL_EVERY_S:
+                    self._panels()
+                    last_panel = start
+                period = self.dt / max(self.speed, 1e-3) if not self.paused else 0.02
+                time.sleep(max(0.0, period - (time.perf_counter() - start)))
+        except KeyboardInterrupt:
+            pass
+
+    def close(self) -> None:
+        self.server.stop()
