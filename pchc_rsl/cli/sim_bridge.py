@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import signal
 
 from pchc_rsl.cli import arguments
@@ -12,7 +13,7 @@ PROG = "pchc-sim-bridge"
 def non_negative_ms(text: str) -> float:
     value = float(text) if text.replace(".", "", 1).isdigit() else -1.0
     if value < 0:
-        raise arguments.argparse.ArgumentTypeError(f"must be a number of milliseconds >= 0, got '{text}'")
+        raise argparse.ArgumentTypeError(f"must be a number of milliseconds >= 0, got '{text}'")
     return value
 
 
