@@ -18,8 +18,8 @@ def walk_rewards() -> list[RewardTerm]:
     Gait terms (the shipped walker hopped, both feet leaving the ground together 4-10 times a second): legged_gym's
     air-time term, which charges every swing shorter than 0.3 s and pays longer ones up to 0.5 s, a single-stance
     term that pays the feet taking turns, and unitree_rl_gym's G1 hip_pos penalty on hip roll and yaw against
-    straddling. Objectives are the paper's equations: r_stride read per stance step (see
-    g1_rewards.stride), r_disturb with a fall costing 5 (a fall ends the episode, which without it ends r_disturb's
+    straddling. Objectives are the paper's equations: r_stride read per stance step and paid at the commanded
+    speed (see g1_rewards.stride), r_disturb with a fall costing 5 (a fall ends the episode, which without it ends r_disturb's
     cost too, so falling was the cheapest answer to a strong push at the disturbance end)."""
     return [
         RewardTerm(R + "track_lin_vel_xy", 2.0, params={"std": 0.5}),
@@ -36,7 +36,7 @@ def walk_rewards() -> list[RewardTerm]:
         RewardTerm(R + "action_rate", -0.01),
         RewardTerm(R + "alive", 1.0),
         RewardTerm(R + "disturbance", 1.0, group="disturbance", params={"fall_cost": 5.0}),
-        RewardTerm(R + "stride", 1.0, group="stride"),
+        RewardTerm(R + "stride", 1.0, group="stride", params={"speed_std": 0.25}),
     ]
 
 

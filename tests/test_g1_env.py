@@ -150,6 +150,20 @@ def test_stride_reward_pays_nothing_sideways_backwards_or_when_told_to_stand():
     torch.testing.assert_close(g1_rewards.stride(env, along_heading=False), torch.tensor([0.3, 0.4, 0.0]))
 
 
+def test_stride_reward_gated_by_speed_pays_nothing_for_walking_faster():
+    """speed_std: a 0.3 m step at the commanded 0.5 m/s pays 0.3; the same step at 1.0 m/s pays
+    0.3 exp(-0.5^2 / 0.25^2) = 0.3 e^-4; at 0.6 m/s, 0.3 e^-0.16."""
+    from pchc_rsl.envs import g1_rewards
+
+    env = make_walk_env(num_envs=3)
+    env.feet.stance_step[:] = torch.tensor([[0.3, 0.0], [0.0, 0.0]])
+    env.commands[:] = torch.tensor([0.5, 0.0, 0.0])
+    env.robot.base_lin_vel = torch.tensor([[0.5, 0.0, 0.0], [1.0, 0.0, 0.0], [0.6, 0.0, 0.0]])
+    expected = torch.tensor([0.3, 0.3 * math.exp(-4.0), 0.3 * math.exp(-0.16)])
+    torch.testing.assert_close(g1_rewards.stride(env, speed_std=0.25), expected)
+    torch.testing.assert_close(g1_rewards.stride(env), torch.full((3,), 0.3))  # ungated, as before
+
+
 def test_action_delay_holds_the_previous_target_for_the_first_substeps():
     """env.action_delay_s (0.01, 0.01) on the fast physics (5 ms substeps): 2 of the 4 substeps hold the old
     target; the physics receives one control per substep."""
