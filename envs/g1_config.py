@@ -51,6 +51,9 @@ class RandomizationConfig:
 @dataclass
 class G1EnvConfig:
     joints: list[str]
+    held_joints: list[str] = field(default_factory=list)
+    """Joints the policy does not drive that are held at the default pose by a spring-damper with the robot's
+    holding gains (as pchc-deploy holds them on the robot) instead of welded; empty: every other joint welded."""
     physics: str = "mujoco"
     """The physics backend: "mujoco" (C MuJoCo on the CPU threads) or "warp" (MuJoCo Warp on the training device;
     the ``warp`` extra)."""

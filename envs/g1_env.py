@@ -29,7 +29,7 @@ from pchc_rsl.envs.g1_robot_state import RobotState
 from pchc_rsl.envs.physics_backend import make_physics, physics_device
 from pchc_rsl.envs.reward_groups import RewardGroups
 from pchc_rsl.preference import EnvPreferences
-from pchc_rsl.robots.g1.constants import STANDING_HEIGHT
+from pchc_rsl.robots.g1.constants import STANDING_HEIGHT, holding_gains
 from pchc_rsl.robots.g1.model import build_g1_model, default_joint_positions
 
 __all__ = ["G1Env", "G1EnvConfig", "PushConfig", "RandomizationConfig", "RewardTerm"]
@@ -54,7 +54,7 @@ class G1Env(VecEnv):
         self.generator = torch.Generator(self.device).manual_seed(seed)
         self.rng = np.random.default_rng(seed)
 
-        self.model = build_g1_model(cfg.joints, cfg.timestep)
+        self.model = build_g1_model(cfg.joints, cfg.timestep, held_joints=tuple(cfg.held_joints))
         variants = model_variants(self.model, cfg.randomization, num_envs, self.rng)
         self.physics = make_physics(cfg.physics, variants, num_envs, cfg.decimation, cfg.num_threads, self.device,
                                     with_body_forces=self.uses_body_forces)
@@ -154,6 +154,9 @@ class G1Env(VecEnv):
         noise = self.cfg.initial_joint_noise * (
             2 * torch.rand(n, self.num_actions, generator=self.generator, device=self.device) - 1)
         qpos[:, self.robot.joint_qpos_idx] = (self.default_joint_pos + noise).double()
+        for name in self.cfg.held_joints:  # at their spring's rest
+            qpos[:, self.model.jnt_qposadr[self.model.joint(name).id]] = float(self.model.qpos_spring[
+                self.model.jnt_qposadr[self.model.joint(name).id]])
         return qpos, torch.zeros(n, self.model.nv, device=self.device, dtype=torch.float64)
 
     # ---------------------------------------------------------------- observations
@@ -360,6 +363,7 @@ class G1Env(VecEnv):
             "decimation": int(self.cfg.decimation),
             "objective_names": list(self.cfg.objective_names),
             "preference_size": self.num_objectives,
+            "held_joints": {j: list(holding_gains(j)) for j in self.cfg.held_joints},  # trained held by PD: kp, kd
         }
 
     # ---------------------------------------------------------------- checkpointed state

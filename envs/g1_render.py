@@ -32,7 +32,7 @@ def rendering_help(error: Exception | str) -> str:
 
 def visual_model(env, width: int = 640, height: int = 480) -> mujoco.MjModel:
     """The task's G1 with its meshes, checked to share the physics model's qpos layout."""
-    model = build_g1_model(env.cfg.joints, env.cfg.timestep, visual=True)
+    model = build_g1_model(env.cfg.joints, env.cfg.timestep, visual=True, held_joints=tuple(env.cfg.held_joints))
     physics = env.model
     same = model.nq == physics.nq and all(
         model.joint(i).name == physics.joint(i).name for i in range(physics.njnt))

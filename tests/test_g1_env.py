@@ -392,3 +392,29 @@ def test_single_stance_pays_walking_not_hopping_shuffling_or_standing():
     env.feet.contact[:] = torch.tensor([[True, False], [False, False], [True, True], [False, True]])
     env.commands[:] = torch.tensor([[0.5, 0, 0], [0.5, 0, 0], [0.5, 0, 0], [0.0, 0, 0]])
     assert g1_rewards.single_stance(env).tolist() == [1.0, 0.0, 0.0, 0.0]
+
+
+def test_held_joints_are_springs_at_the_default_pose_with_the_holding_gains():
+    """env.held_joints keeps the waist and wrists, unactuated, as a spring-damper with the robot's holding gains: a
+    waist turned by 0.1 rad feels -kp * 0.1 (30 Nm) and swings back; the policy's joints and actions are unchanged."""
+    import mujoco
+
+    from pchc_rsl.robots.g1.constants import WALK_JOINTS, holding_gains
+
+    held = ["waist_yaw_joint", "left_wrist_roll_joint"]
+    env = make_walk_env(num_envs=1, held_joints=held)
+    model = env.model
+    assert model.nu == env.num_actions == len(WALK_JOINTS)
+    waist = model.joint("waist_yaw_joint")
+    kp, kd = holding_gains("waist_yaw_joint")
+    assert (kp, kd) == (300.0, 3.0)
+    assert model.jnt_stiffness[waist.id] == kp and model.dof_damping[waist.dofadr[0]] == kd
+    data = mujoco.MjData(model)
+    data.qpos[2], data.qpos[3] = 0.76, 1.0
+    data.qpos[waist.qposadr[0]] = 0.1
+    mujoco.mj_forward(model, data)
+    assert data.qfrc_spring[waist.dofadr[0]] == pytest.approx(-kp * 0.1)
+    env.step(torch.zeros(1, env.num_actions))
+    q = env.physics.qpos[0, waist.qposadr[0]]
+    assert abs(float(q)) < 0.05  # held near 0 while the robot stands
+    assert env.deploy_metadata()["held_joints"] == {"waist_yaw_joint": [300.0, 3.0], "left_wrist_roll_joint": [20.0, 1.0]}

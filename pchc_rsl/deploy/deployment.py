@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from pchc_rsl.deploy.fixed_rate import FixedRateLoop
-from pchc_rsl.deploy.g1_motors import MOTOR_DEFAULT_POS, MOTOR_HOLD_KD, MOTOR_HOLD_KP
+from pchc_rsl.deploy.g1_motors import MOTOR_DEFAULT_POS, MOTOR_HOLD_KD, MOTOR_HOLD_KP, MOTOR_JOINTS
 from pchc_rsl.deploy.live_controls import Command, Preference, RemoteEdges
 from pchc_rsl.deploy.policy_step import PolicyStep
 from pchc_rsl.deploy.robot_io import MotorCommand, Remote, RobotState
@@ -109,6 +109,8 @@ class Deployment:
         joints = policy.joints
         kp, kd = MOTOR_HOLD_KP.copy(), MOTOR_HOLD_KD.copy()
         kp[joints.motor_index], kd[joints.motor_index] = policy.kp, policy.kd
+        for name, (held_kp, held_kd) in policy.meta.get("held_joints", {}).items():  # as the policy trained them
+            kp[MOTOR_JOINTS.index(name)], kd[MOTOR_JOINTS.index(name)] = held_kp, held_kd
         self.default_pos = joints.to_motors(policy.default_pos, MOTOR_DEFAULT_POS)
         self.safety = SafetyStateMachine(kp, kd, self.default_pos, joints.motor_index, policy.joint_range)
         self.preference = Preference(preference, policy.objective_names)

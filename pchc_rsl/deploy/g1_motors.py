@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pchc_rsl.robots.g1.constants import DEFAULT_POSE, joint_gains, joint_motor
+from pchc_rsl.robots.g1.constants import DEFAULT_POSE, holding_gains, joint_gains, joint_motor
 
 MOTOR_JOINTS = [
     *(f"left_{n}_joint" for n in ("hip_pitch", "hip_roll", "hip_yaw", "knee", "ankle_pitch", "ankle_roll")),
@@ -28,18 +28,6 @@ MOTOR_KP = np.array([joint_gains(j)[0] for j in MOTOR_JOINTS])
 MOTOR_KD = np.array([joint_gains(j)[1] for j in MOTOR_JOINTS])
 MOTOR_EFFORT_LIMIT = np.array([joint_motor(j).effort_limit for j in MOTOR_JOINTS])
 MOTOR_DEFAULT_POS = np.array([DEFAULT_POSE.get(j, 0.0) for j in MOTOR_JOINTS])
-
-
-def holding_gains(joint: str) -> tuple[float, float]:
-    """(kp, kd) for a joint that the policy does not drive. A policy trained with that joint welded falls over
-    when the joint is held as softly as the armature rule's gains (the waist at kp 40 let the walker drift 0.3 m
-    in 10 s against 2.8 m with a stiff waist, in pchc-deploy's simulator), so these are the stiffer holding
-    gains of unitree_rl_gym's G1 deploy config: waist 300 / 3, wrists 20 / 1; the rest keep the armature rule."""
-    if joint.startswith("waist"):
-        return 300.0, 3.0
-    if "wrist" in joint:
-        return 20.0, 1.0
-    return joint_gains(joint)
 
 
 MOTOR_HOLD_KP = np.array([holding_gains(j)[0] for j in MOTOR_JOINTS])

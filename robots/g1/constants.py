@@ -70,6 +70,19 @@ def joint_gains(joint: str) -> tuple[float, float]:
     return armature * NATURAL_FREQUENCY**2, 2.0 * DAMPING_RATIO * armature * NATURAL_FREQUENCY
 
 
+def holding_gains(joint: str) -> tuple[float, float]:
+    """(kp, kd) that hold a joint a policy does not drive at the default pose: on the robot (pchc-deploy) and, with
+    ``G1EnvConfig.held_joints``, in training. A walker trained with its waist welded fell over or drifted when the
+    waist was held as softly as the armature rule's gains (kp 40 let it drift 0.3 m in 10 s against 2.8 m with a
+    stiff waist, in pchc-deploy's simulator), so these are the stiffer holding gains of unitree_rl_gym's G1 deploy
+    config: waist 300 / 3, wrists 20 / 1; the rest keep the armature rule."""
+    if joint.startswith("waist"):
+        return 300.0, 3.0
+    if "wrist" in joint:
+        return 20.0, 1.0
+    return joint_gains(joint)
+
+
 STANDING_HEIGHT = 0.76
 DEFAULT_POSE = {
     "left_hip_pitch_joint": -0.312,

@@ -5,8 +5,9 @@ from __future__ import annotations
 import os
 
 import mujoco
+import numpy as np
 
-from pchc_rsl.robots.g1.constants import DEFAULT_POSE, FOOT_BODIES, FOOT_SITES, joint_gains, joint_motor
+from pchc_rsl.robots.g1.constants import DEFAULT_POSE, FOOT_BODIES, FOOT_SITES, holding_gains, joint_gains, joint_motor
 
 ALL_JOINTS_MARKER = "floating_base_joint"
 COLLISION_GROUP = 3
@@ -39,7 +40,8 @@ def load_g1_spec() -> mujoco.MjSpec:
 
 
 def build_g1_model(joints: list[str], timestep: float = 0.002, lean_feet: bool = True,
-                   visual: bool = False, torque_control: bool = False) -> mujoco.MjModel:
+                   visual: bool = False, torque_control: bool = False,
+                   held_joints: tuple[str, ...] = ()) -> mujoco.MjModel:
     """Compile a G1 that actuates exactly ``joints`` (in that order) with position actuators.
 
     Joints not in ``joints`` are deleted, which welds their bodies to the parent (mass kept, no cost).
@@ -47,19 +49,31 @@ def build_g1_model(joints: list[str], timestep: float = 0.002, lean_feet: bool =
     physics model) drops the visual meshes altogether: they weigh nothing (density 0) but are 197k vertices, about
     70 MB per model copy; ``visual=True`` keeps them, non-colliding, for rendering the same physics state.
     The floor has geom priority 1, so a contact's friction is the floor's (randomisable), not the larger of the two.
-    ``torque_control``: motor actuators (ctrl is the joint torque, clipped to the effort limit) instead of position
+    ``held_joints`` are kept (not welded) but not actuated: a joint spring and damper with the holding gains
+    (kp, kd of robots/g1/constants.holding_gains) keeps each at the default pose, as the robot's PD holds the joints a
+    policy does not drive. They come after ``joints`` in qpos only where the MJCF orders them so; look joints up by
+    name. ``torque_control``: motor actuators (ctrl is the joint torque, clipped to the effort limit) instead of position
     actuators, for a simulator that applies the robot's own PD law (the sim bridge). Sensors: per foot a framepos, a framelinvel and a touch sensor (sole contact force); the whole-body centre of
     mass (subtree COM of the pelvis); then one actuatorfrc per actuator.
     """
     spec = load_g1_spec()
     spec.option.timestep = timestep
     known = {j.name for j in spec.joints}
-    unknown = [j for j in joints if j not in known]
+    unknown = [j for j in [*joints, *held_joints] if j not in known]
     if unknown:
         raise ValueError(f"Unknown G1 joints {unknown}; known: {sorted(known - {ALL_JOINTS_MARKER})}.")
     for joint in list(spec.joints):
-        if joint.name != ALL_JOINTS_MARKER and joint.name not in joints:
+        if joint.name != ALL_JOINTS_MARKER and joint.name not in joints and joint.name not in held_joints:
             spec.delete(joint)
+    for name in held_joints:
+        joint = spec.joint(name)
+        kp, kd = holding_gains(name)
+        joint.armature = joint_motor(name).armature
+        if np.ndim(joint.stiffness):  # MuJoCo 4: polynomial coefficients, the linear term first
+            joint.stiffness, joint.damping = [kp, 0.0, 0.0], [kd, 0.0, 0.0]
+        else:
+            joint.stiffness, joint.damping = kp, kd
+        joint.springref = DEFAULT_POSE.get(name, 0.0)
 
     for geom in list(spec.geoms):
         if geom.group == COLLISION_GROUP:
