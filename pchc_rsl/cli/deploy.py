@@ -9,7 +9,6 @@ import random
 import subprocess
 import sys
 import tempfile
-import time
 
 from pchc_rsl.cli import arguments
 from pchc_rsl.cli.sim_bridge import add_simulation_arguments
@@ -61,6 +60,8 @@ def main(argv: list[str] | None = None) -> None:
     command = args.command if args.command is not None else (0.5 if simulated else 0.0)
     try:
         report = deploy(args, seconds, command)
+    except KeyboardInterrupt:  # before the loop took over Ctrl-C (which damps, then exits)
+        raise SystemExit(f"{PROG}: interrupted before the deploy loop started; nothing was sent") from None
     except Exception as error:  # noqa: BLE001 - every failure is reported in one line unless -v
         if args.verbose:
             raise
@@ -79,12 +80,11 @@ def deploy(args, seconds: float | None, command: float) -> dict:
     from pchc_rsl.deploy.deployment import AutoSequence, Deployment, InProcessRobot, WallClockRobot
     from pchc_rsl.deploy.live_controls import KEY_HELP, KeyReader
     from pchc_rsl.deploy.policy_step import PolicyStep
+    from pchc_rsl.preference import validate_preference
 
     policy = PolicyStep(args.policy)
     m = len(policy.objective_names)
     preference = args.preference or [1.0 / m] * m
-    from pchc_rsl.preference import validate_preference
-
     validate_preference(preference, m)
     print(f"{PROG}: {policy.task} policy, {len(policy.joints.policy_joints)} of 29 joints driven, objectives "
           f"{', '.join(policy.objective_names)}, {1 / policy.control_period:.0f} Hz", flush=True)
@@ -127,7 +127,8 @@ def deploy(args, seconds: float | None, command: float) -> dict:
             print(f"{PROG}: console at {console.url}", flush=True)
         run = Deployment(policy, WallClockRobot(dds, policy.control_period), preference, command, auto, inputs)
         run.run(seconds, no_state_hint=f" on interface {interface}, DDS domain {domain}"
-                + ("" if args.sim else "; is the robot on, in debug mode (L2+R2), and on that interface?"))
+                + ("" if args.sim else "; is the robot on, in debug mode (L2+R2), and on that interface?"),
+                no_state_timeout=30.0 if args.sim else 3.0)  # the bridge takes seconds to start on a busy machine
         report = run.report()
         dds.close()
     finally:

@@ -193,7 +193,8 @@ class Deployment:
         if cmd is not None:
             self.robot.send(cmd)
 
-    def run(self, seconds: float | None = None, no_state_hint: str = "") -> None:
+    def run(self, seconds: float | None = None, no_state_hint: str = "",
+            no_state_timeout: float = NO_STATE_TIMEOUT_S) -> None:
         """Tick until ``seconds`` of policy (or of the whole run without an auto sequence), a quit or Ctrl-C; then
         damp for half a second so the robot is left safe."""
         start = self.robot.now()
@@ -201,8 +202,8 @@ class Deployment:
             while not self.quit_requested:
                 self.tick()
                 now = self.robot.now()
-                if self.safety.mode is Mode.WAIT and now - start > NO_STATE_TIMEOUT_S:
-                    raise NoLowState(f"no rt/lowstate within {NO_STATE_TIMEOUT_S:.0f} s{no_state_hint}")
+                if self.safety.mode is Mode.WAIT and now - start > no_state_timeout:
+                    raise NoLowState(f"no rt/lowstate within {no_state_timeout:.0f} s{no_state_hint}")
                 if seconds is not None:
                     since = self.policy_since if self.auto is not None else start
                     if since is not None and now - since >= seconds:
