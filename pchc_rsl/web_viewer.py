@@ -96,15 +96,16 @@ def add_command_control(gui, initial: float, on_change):
 class WebViewer:
     """One env (env 0) of a checkpoint's evaluation env, its policy, and the page that shows and steers it."""
 
-    def __init__(self, env, policy, task: str, preference, host: str = DEFAULT_HOST, port: int = DEFAULT_PORT,
+    def __init__(self, env, policy, preference, host: str = DEFAULT_HOST, port: int = DEFAULT_PORT,
                  speed: float = 1.0, pushes: dict | None = None) -> None:
+        """``pushes``: the task's push presets, name -> (speed m/s, window s), offered as the push's strength."""
         import torch
 
         viser, ViserMujocoScene = require_viser()
         check_port(host, port)
-        self.env, self.policy, self.task = env, policy, task
+        self.env, self.policy = env, policy
         self.is_g1 = hasattr(env, "physics")
-        self.dt = float(env.dt) if self.is_g1 else 0.1
+        self.dt = float(env.dt) if self.is_g1 else 0.1  # the toy has no physical time: 10 steps a second
         self.speed, self.paused, self.steps_requested = speed, False, 0
         self.pushes = pushes or {}
         self.pending: collections.deque = collections.deque()
@@ -158,16 +159,14 @@ class WebViewer:
             pause = gui.add_checkbox("Pause", False)
             pause.on_update(lambda _: self.queue("pause", pause.value))
             gui.add_button("Step").on_click(lambda _: self.queue("step"))
-            speed = gui.add_slider("speed (x real time)", 0.1, 2.0, 0.1, self.speed)
+            speed = gui.add_slider("speed (x real time)", 0.1, max(2.0, self.speed), 0.1, self.speed)
             speed.on_update(lambda _: self.queue("speed", speed.value))
+        colors = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728"]  # matplotlib's first four, as in the Pareto plots
         series = [{"label": "t (s)"}, {"label": "task", "stroke": "gray"}]
-        colors = ["tab:blue", "tab:orange", "tab:green", "tab:red"]
-        css = {"tab:blue": "#1f77b4", "tab:orange": "#ff7f0e", "tab:green": "#2ca02c", "tab:red": "#d62728"}
-        series += [{"label": n, "stroke": css[colors[i % 4]]} for i, n in enumerate(names)]
+        series += [{"label": n, "stroke": colors[i % 4]} for i, n in enumerate(names)]
         empty = tuple(np.zeros(2) for _ in series)
         self.reward_plot = gui.add_uplot(empty, tuple(series), title="rewards per step", aspect=1.6)
         self.metrics_text = gui.add_markdown("")
-
 
     # ------------------------------------------------------------------ controls (any thread)
     def queue(self, action: str, value=None) -> None:

@@ -82,7 +82,7 @@ def walk_viewer():
     from pchc_rsl.web_viewer import WebViewer
 
     task, env, policy = load_policy(WALK, 1, 0, 1e6, 0.0)  # push only when asked
-    viewer = WebViewer(env, policy, task, [0.5, 0.5], port=free_port(), pushes=TASK_EVALUATION[task].pushes)
+    viewer = WebViewer(env, policy, [0.5, 0.5], port=free_port(), pushes=TASK_EVALUATION[task].pushes)
     yield viewer
     viewer.close()
 
@@ -151,8 +151,8 @@ def test_the_toy_gets_its_plot(tmp_path):
     from pchc_rsl.web_viewer import WebViewer
 
     train.main(["--task", "toy", "--num-envs", "2", "--max-iterations", "1", "--log-dir", str(tmp_path / "toy")])
-    task, env, policy = load_policy(str(tmp_path / "toy" / "model_0.pt"), 1, 0, None, None)
-    viewer = WebViewer(env, policy, task, [1.0, 0.0], port=free_port())
+    _, env, policy = load_policy(str(tmp_path / "toy" / "model_0.pt"), 1, 0, None, None)
+    viewer = WebViewer(env, policy, [1.0, 0.0], port=free_port())
     try:
         for _ in range(3):
             viewer.step()

@@ -342,7 +342,7 @@ def watch_in_browser(checkpoint: str, preference, args) -> None:
     task, env, policy = load_policy(checkpoint, 1, args.seed, 1e6, args.push_every, args.overrides)
     check_objectives(env, [preference], checkpoint)
     evaluation = TASK_EVALUATION.get(task)
-    viewer = WebViewer(env, policy, task, preference, host, port, args.speed,
+    viewer = WebViewer(env, policy, preference, host, port, args.speed,
                        pushes=evaluation.pushes if evaluation is not None else {})
     print(f"pchc-play: open {viewer.url} in a browser (on another machine: ssh -L {port}:{host}:{port} THIS_HOST, "
           f"then http://localhost:{port}); Ctrl-C stops", flush=True)
