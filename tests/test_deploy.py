@@ -152,6 +152,7 @@ class FakeRobot:
         self.t, self.silent_after, self.interrupt_at = 0.0, silent_after, interrupt_at
         self.sent, self.received, self.loop = [], 0, None
         self.last_state: RobotState | None = None
+        self.remote = Remote()  # what the operator holds on the G1's remote
 
     def now(self):
         return self.t
@@ -159,6 +160,7 @@ class FakeRobot:
     def read(self):
         if self.t <= self.silent_after:
             self.last_state = standing_state(received_at=self.t)
+            self.last_state.remote = self.remote.encode()
         return self.last_state
 
     def send(self, cmd):
@@ -200,6 +202,32 @@ def test_ctrl_c_damps_then_exits():
     after = [cmd for t, cmd in robot.sent if t >= 4.0]
     assert after and all(is_damping(cmd) for cmd in after)
     assert robot.sent[-1][0] >= 4.0 + 0.5 - 0.02  # half a second of damping before the exit
+
+
+def test_the_remote_starts_the_robot_and_moves_lambda_and_the_command_once_per_press():
+    robot = FakeRobot()
+    run = fake_deployment(robot)
+    run.auto = None
+    run.tick()
+    robot.remote = Remote(frozenset({"start"}))
+    run.tick()
+    assert run.safety.mode is Mode.RAMP
+    robot.remote = Remote(frozenset({"R1", "up"}))
+    for _ in range(5):  # held for five ticks: one step each
+        robot.wait_tick()
+        run.tick()
+    assert run.preference.value.tolist() == pytest.approx([0.4, 0.6]) and run.command.value[0] == pytest.approx(0.6)
+    robot.remote = Remote()
+    robot.wait_tick()
+    run.tick()
+    robot.remote = Remote(frozenset({"L1"}))
+    robot.wait_tick()
+    run.tick()
+    assert run.preference.value.tolist() == pytest.approx([0.5, 0.5])
+    robot.remote = Remote(frozenset({"select"}))
+    robot.wait_tick()
+    run.tick()
+    assert run.safety.mode is Mode.DAMPING and run.safety.reason == "operator"
 
 
 def test_the_fixed_rate_loop_keeps_its_grid():
