@@ -41,7 +41,7 @@ class SafetyStateMachine:
     def __init__(self, kp: np.ndarray | None = None, kd: np.ndarray | None = None,
                  default_pos: np.ndarray | None = None, policy_index: np.ndarray | None = None,
                  joint_range: np.ndarray | None = None) -> None:
-        """kp, kd, default_pos: [29] motor arrays (the policy's gains on its joints, the armature rule elsewhere);
+        """kp, kd, default_pos: [29] motor arrays (the policy's gains on its joints, holding gains elsewhere);
         policy_index: the motors the policy drives; joint_range: [len(policy_index), 2]."""
         self.kp = MOTOR_KP.copy() if kp is None else np.asarray(kp, float)
         self.kd = MOTOR_KD.copy() if kd is None else np.asarray(kd, float)
