@@ -61,6 +61,9 @@ class G1Env(VecEnv):
         dev = self.device
         self.robot = RobotState(self.physics, self.model, cfg.joints)
         self.default_joint_pos = torch.tensor(default_joint_positions(cfg.joints), device=dev)
+        held = [int(self.model.jnt_qposadr[self.model.joint(j).id]) for j in cfg.held_joints]
+        self._held_qpos_idx = torch.tensor(held, dtype=torch.long, device=dev)
+        self._held_qpos = torch.tensor(self.model.qpos_spring[held], dtype=torch.float64, device=dev)
         ranges = torch.tensor(self.model.jnt_range[[self.model.joint(j).id for j in cfg.joints]], dtype=torch.float32,
                               device=dev)
         half = 0.45 * (ranges[:, 1:] - ranges[:, :1])
@@ -154,9 +157,7 @@ class G1Env(VecEnv):
         noise = self.cfg.initial_joint_noise * (
             2 * torch.rand(n, self.num_actions, generator=self.generator, device=self.device) - 1)
         qpos[:, self.robot.joint_qpos_idx] = (self.default_joint_pos + noise).double()
-        for name in self.cfg.held_joints:  # at their spring's rest
-            qpos[:, self.model.jnt_qposadr[self.model.joint(name).id]] = float(self.model.qpos_spring[
-                self.model.jnt_qposadr[self.model.joint(name).id]])
+        qpos[:, self._held_qpos_idx] = self._held_qpos  # held joints at their spring's rest
         return qpos, torch.zeros(n, self.model.nv, device=self.device, dtype=torch.float64)
 
     # ---------------------------------------------------------------- observations

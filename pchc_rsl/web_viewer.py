@@ -173,9 +173,6 @@ class WebViewer:
         with self.lock:
             self.pending.append((action, value))
 
-    def set_preference_sliders(self, values) -> None:
-        self.queue("preference", preference_from_sliders(values))
-
     def apply_pending(self) -> bool:
         """Apply the queued actions to the env; True if the policy needs fresh observations."""
         import torch

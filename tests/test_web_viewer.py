@@ -100,7 +100,7 @@ def test_the_scene_holds_every_visible_body_of_the_g1(walk_viewer):
 @needs_g1
 def test_the_controls_change_the_env(walk_viewer):
     env = walk_viewer.env
-    walk_viewer.set_preference_sliders([0.8])
+    walk_viewer.preference_sliders[0].value = 0.8  # as the page sets it: the slider's callback queues lambda
     walk_viewer.queue("command", 0.3)
     walk_viewer.queue("pause", True)
     walk_viewer.queue("step")
@@ -110,9 +110,11 @@ def test_the_controls_change_the_env(walk_viewer):
     assert float(env.commands[0, 0]) == pytest.approx(0.3)
     assert walk_viewer.paused and walk_viewer.steps_requested == 1 and walk_viewer.speed == 0.5
     assert walk_viewer.obs["preference"][0].tolist() == pytest.approx([0.2, 0.8])  # the policy sees the new lambda
+    walk_viewer.preference_sliders[0].value = 0.5  # back where the page starts (the fixture is shared)
     walk_viewer.queue("pause", False)
     walk_viewer.queue("reset")
     walk_viewer.apply_pending()
+    assert env.preference[0].tolist() == pytest.approx([0.5, 0.5])
     assert not walk_viewer.paused and int(env.episode_length_buf[0]) == 0
 
 

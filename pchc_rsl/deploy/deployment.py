@@ -147,7 +147,7 @@ class Deployment:
             if name == "preference":
                 self.preference.value = np.asarray(value, float)
             elif name == "command":
-                self.command.change(float(value) - self.command.value[0])
+                self.command.set(float(value))
         elif key == "s":
             self.safety.request(Mode.RAMP, now, state)
         elif key == "p":
@@ -166,7 +166,7 @@ class Deployment:
         elif key in "wx":
             self.command.change(0.1 if key == "w" else -0.1)
         elif key == "z":
-            self.command.change(-self.command.value[0])
+            self.command.set(0.0)
         after = (str(self.preference), str(self.command))
         if after != before:
             self.log(f"{after[0]}" + (f", {after[1]}" if self.policy.uses_command else ""))

@@ -47,10 +47,14 @@ class Command:
     """The walking velocity command (forward speed only, as the walking task trains it)."""
 
     def __init__(self, forward: float = 0.0) -> None:
-        self.value = np.array([float(np.clip(forward, -MAX_SPEED, MAX_SPEED)), 0.0, 0.0])
+        self.value = np.zeros(3)
+        self.set(forward)
+
+    def set(self, forward: float) -> None:
+        self.value[0] = float(np.clip(round(forward, 3), -MAX_SPEED, MAX_SPEED))
 
     def change(self, delta: float) -> None:
-        self.value[0] = float(np.clip(round(self.value[0] + delta, 3), -MAX_SPEED, MAX_SPEED))
+        self.set(self.value[0] + delta)
 
     def __str__(self) -> str:
         return f"command {self.value[0]:+.2f} m/s"

@@ -9,7 +9,6 @@ import numpy as np
 from pchc_rsl.deploy.g1_motors import JointMap
 from pchc_rsl.deploy.robot_io import RobotState
 from pchc_rsl.export import OnnxPolicy
-from pchc_rsl.preference import validate_preference
 
 FRAME_QUANTITIES = {"base_ang_vel", "projected_gravity", "joint_pos_minus_default", "joint_vel", "last_action",
                     "action_scale_eta", "velocity_command"}
@@ -71,8 +70,8 @@ class PolicyStep:
         """Push the newest frame, run the network, return the joint targets [J] (policy order)."""
         self.history[1:] = self.history[:-1]
         self.history[0] = self.frame(state, self._command(command))
-        preference = validate_preference(preference, len(self.objective_names)).numpy()
-        action = self.policy(self.history.reshape(1, -1), preference.reshape(1, -1))[0]
+        preference = np.asarray(preference, np.float32).reshape(1, -1)  # OnnxPolicy checks it is on the simplex
+        action = self.policy(self.history.reshape(1, -1), preference)[0]
         self.last_action = np.clip(action, -self.action_clip, self.action_clip).astype(np.float64)
         return self.default_pos + self.action_scale * self.last_action
 

@@ -52,8 +52,9 @@ def build_g1_model(joints: list[str], timestep: float = 0.002, lean_feet: bool =
     ``held_joints`` are kept (not welded) but not actuated: a joint spring and damper with the holding gains
     (kp, kd of robots/g1/constants.holding_gains) keeps each at the default pose, as the robot's PD holds the joints a
     policy does not drive. They come after ``joints`` in qpos only where the MJCF orders them so; look joints up by
-    name. ``torque_control``: motor actuators (ctrl is the joint torque, clipped to the effort limit) instead of position
-    actuators, for a simulator that applies the robot's own PD law (the sim bridge). Sensors: per foot a framepos, a framelinvel and a touch sensor (sole contact force); the whole-body centre of
+    name. ``torque_control``: motor actuators (ctrl is the joint torque, clipped to the effort limit) instead of
+    position actuators, for a simulator that applies the robot's own PD law (the sim bridge).
+    Sensors: per foot a framepos, a framelinvel and a touch sensor (sole contact force); the whole-body centre of
     mass (subtree COM of the pelvis); then one actuatorfrc per actuator.
     """
     spec = load_g1_spec()
