@@ -95,7 +95,7 @@ class G1Env(VecEnv):
             if cfg.action_scale_per_joint else torch.ones(self.num_actions, device=dev)
         )
         self.episode_reward_sums = torch.zeros(n, 1 + self.num_objectives, device=dev)
-        self.unstable_resets = 0
+        self.unstable_resets = torch.zeros((), dtype=torch.long, device=dev)
         self.reset()
         # every per-step quantity has a (zero) sum from the start, so episode_metrics also answers before a step
         self.episode.add({key: torch.zeros_like(value) for key, value in self.step_metrics().items()})
@@ -130,7 +130,7 @@ class G1Env(VecEnv):
         )
         if self.cfg.zero_command_probability > 0:
             standing = torch.rand(n, generator=self.generator, device=self.device) < self.cfg.zero_command_probability
-            commands[standing] = 0.0
+            commands = torch.where(standing.unsqueeze(-1), 0.0, commands)
         self.commands[ids] = commands
         low, high = self._delay_range
         self.action_delay[ids] = torch.randint(low, high + 1, (n,), generator=self.generator, device=self.device)
@@ -197,7 +197,7 @@ class G1Env(VecEnv):
         self._after_physics()
 
         reward_groups = self.rewards.compute(self)
-        reward_groups[unstable] = 0.0  # diverged physics earns nothing; those envs are reset and counted
+        reward_groups.masked_fill_(unstable.unsqueeze(-1), 0.0)  # diverged physics earns nothing; reset and counted
         terminated = self._terminated() | unstable
         time_outs = (self.episode_length_buf >= self.max_episode_length) & ~terminated
         dones = terminated | time_outs
@@ -210,12 +210,12 @@ class G1Env(VecEnv):
 
         done_ids = dones.nonzero(as_tuple=False).squeeze(-1)
         finished = {"env_ids": done_ids, "fell": terminated[done_ids], **self.episode_metrics(done_ids)}
-        log = self._episode_log(done_ids, finished, int(unstable.sum()))
+        log = self._episode_log(done_ids, finished, unstable.sum())
         self.reset(done_ids)
         if self.cfg.preference_resample_prob > 0 and self.preferences.held is None:
             resample = (torch.rand(self.num_envs, generator=self.generator, device=self.device)
                         < self.cfg.preference_resample_prob)
-            self.preferences.resample(resample.nonzero(as_tuple=False).squeeze(-1))
+            self.preferences.resample_where(resample)
         self.observations.push(self, amp=False)
         extras = {"time_outs": time_outs, "reward_groups": reward_groups, "log": log, "episode_metrics": finished,
                   "amp_observations": amp_before_reset}
@@ -254,13 +254,12 @@ class G1Env(VecEnv):
         return fallen | tilted
 
     def _unstable_envs(self) -> torch.Tensor:
-        """Envs whose physics diverged (MuJoCo reset them, NaN/inf, or absurd velocities); reset and counted."""
+        """Envs whose physics diverged (MuJoCo reset them, NaN/inf, or absurd velocities); sanitised, reset and
+        counted, on the device (no host sync)."""
         p = self.physics
         bad = p.diverged | ~p.qpos.isfinite().all(-1) | ~(p.qvel.abs() <= 1e3).all(-1)  # NaN fails the <=
-        count = int(bad.sum())
-        if count:
-            self.unstable_resets += count
-            p.sanitize(bad.nonzero(as_tuple=False).squeeze(-1))
+        self.unstable_resets += bad.sum()
+        p.sanitize(bad)
         return bad
 
     # ---------------------------------------------------------------- metrics
@@ -309,24 +308,23 @@ class G1Env(VecEnv):
             "command_speed": ratio(s["command_speed_sum"], s["steps"]),
         }
 
-    def _episode_log(self, done_ids: torch.Tensor, finished: dict[str, torch.Tensor], unstable: int) -> dict:
+    def _episode_log(self, done_ids: torch.Tensor, finished: dict[str, torch.Tensor], unstable: torch.Tensor) -> dict:
+        """extras['log']: per finished episode values, NaN where a metric is undefined (an episode without a push);
+        the runner's IterationLogger leaves the NaN out of its means. Nothing here waits on the device."""
         log = {
-            "Episode_Termination/unstable_resets_total": torch.tensor(float(self.unstable_resets)),
-            "Episode_Termination/unstable_envs": torch.tensor(float(unstable)),
+            "Episode_Termination/unstable_resets_total": self.unstable_resets.float(),
+            "Episode_Termination/unstable_envs": unstable.float(),
         }
         if len(done_ids) == 0:
             return log
         sums = self.episode_reward_sums[done_ids]
-        log["Episode_Reward/task"] = sums[:, 0].mean()
+        log["Episode_Reward/task"] = sums[:, 0]
         for i, name in enumerate(self.cfg.objective_names):
-            log[f"Episode_Objective/{name}"] = sums[:, 1 + i].mean()
+            log[f"Episode_Objective/{name}"] = sums[:, 1 + i]
         for key, value in finished.items():
-            if key in ("env_ids", "fell"):
-                continue
-            value = value[~value.isnan()]
-            if len(value):
-                log[f"Metrics/{key}"] = value.mean()
-        log["Episode_Termination/fall"] = finished["fell"].float().mean()
+            if key not in ("env_ids", "fell"):
+                log[f"Metrics/{key}"] = value.float()
+        log["Episode_Termination/fall"] = finished["fell"].float()
         return log
 
     # ---------------------------------------------------------------- deployment

@@ -61,10 +61,12 @@ class G1FallRecoveryEnv(G1Env):
     uses_body_forces = True
 
     def __init__(self, cfg: FallRecoveryConfig, num_envs: int, device: str = "cpu", seed: int = 0) -> None:
-        self.assist_level = 1.0 if cfg.curriculum else 0.0
+        where = physics_device(cfg.physics, device)  # the reset inside G1Env.__init__ uses what is set here
+        self._assist = torch.tensor(1.0 if cfg.curriculum else 0.0, dtype=torch.float64, device=where)
+        """The assist level on the env's device: the curriculum updates it without waiting on the device."""
         self.global_steps = 0
-        self._ended_episodes, self._succeeded_episodes = 0, 0
-        where = physics_device(cfg.physics, device)  # the reset inside G1Env.__init__ uses these
+        self._ended_episodes = torch.zeros((), dtype=torch.long, device=where)
+        self._succeeded_episodes = torch.zeros((), dtype=torch.long, device=where)
         self.reached_standing = torch.zeros(num_envs, dtype=torch.bool, device=where)
         self.fell_after_standing = torch.zeros(num_envs, dtype=torch.bool, device=where)
         self._fell_now = torch.zeros(num_envs, dtype=torch.bool, device=where)
@@ -91,21 +93,33 @@ class G1FallRecoveryEnv(G1Env):
         self.fell_after_standing[env_ids] = False
 
     # ---------------------------------------------------------------- curriculum
+    @property
+    def assist_level(self) -> float:
+        """The share of ``assist_force`` lifting the torso now (1 at the start of the curriculum, 0 at its end)."""
+        return float(self._assist)
+
+    @assist_level.setter
+    def assist_level(self, value: float) -> None:
+        self._assist.fill_(value)
+
     def _update_assist(self, env_ids: torch.Tensor) -> None:
         """HoST-style: shrink the assist once most of the last num_envs ended episodes stood up.
 
         Judged over num_envs episodes, not over each step's resets: with terminate_on_fall the failures end one by
         one while the successes end together at the time-out, so a per-step share would be biased towards success.
-        Without termination all episodes end together and the two rules agree."""
-        if not self.cfg.curriculum or self.episode_length_buf[env_ids].max() == 0:
+        Without termination all episodes end together and the two rules agree. Counted on the device: episodes that
+        never ran (the first reset) do not count."""
+        if not self.cfg.curriculum:
             return
-        self._ended_episodes += len(env_ids)
-        self._succeeded_episodes += int(self.succeeded(env_ids).sum())
-        if self._ended_episodes < self.num_envs:
-            return
-        if self._succeeded_episodes >= self.cfg.assist_success_threshold * self._ended_episodes:
-            self.assist_level = max(0.0, self.assist_level - self.cfg.assist_level_step)
-        self._ended_episodes, self._succeeded_episodes = 0, 0
+        ran = self.episode_length_buf[env_ids] > 0
+        self._ended_episodes += ran.sum()
+        self._succeeded_episodes += (self.succeeded(env_ids) & ran).sum()
+        judged = self._ended_episodes >= self.num_envs
+        passed = judged & (self._succeeded_episodes >= self.cfg.assist_success_threshold * self._ended_episodes)
+        self._assist.copy_(torch.where(passed, (self._assist - self.cfg.assist_level_step).clamp(min=0.0),
+                                       self._assist))
+        self._ended_episodes.masked_fill_(judged, 0)
+        self._succeeded_episodes.masked_fill_(judged, 0)
 
     def _update_eta(self) -> None:
         c = self.cfg
@@ -118,7 +132,7 @@ class G1FallRecoveryEnv(G1Env):
 
     def _before_physics(self) -> None:
         self.physics.body_forces[:] = 0.0
-        self.physics.body_forces[:, self.torso_id, 2] = self.cfg.assist_force * self.assist_level
+        self.physics.body_forces[:, self.torso_id, 2] = self.cfg.assist_force * self._assist.to(self.physics.body_forces)
         self.global_steps += 1
         self._update_eta()
 
@@ -190,9 +204,9 @@ class G1FallRecoveryEnv(G1Env):
             "success": self.succeeded(env_ids).float(),
         }
 
-    def _episode_log(self, done_ids: torch.Tensor, finished: dict[str, torch.Tensor], unstable: int) -> dict:
+    def _episode_log(self, done_ids: torch.Tensor, finished: dict[str, torch.Tensor], unstable: torch.Tensor) -> dict:
         log = super()._episode_log(done_ids, finished, unstable)
-        log["Curriculum/assist_level"] = torch.tensor(self.assist_level)
+        log["Curriculum/assist_level"] = self._assist.clone()
         log["Curriculum/action_scale"] = self.action_scale[0, 0].clone()
         return log
 

@@ -69,36 +69,36 @@ class Pushes:
 
     def apply(self, physics, robot: RobotState, commands: torch.Tensor,
               eligible: torch.Tensor | None = None) -> None:
-        """Count down (only where ``eligible``), push the envs whose countdown ran out; record d, x_last, v_ref."""
+        """Count down (only where ``eligible``), push the envs whose countdown ran out; record d, x_last, v_ref.
+
+        Works on masks over all envs, never on the indices of the pushed ones: finding those would wait on the
+        device at every step of a GPU env.
+        """
         if not self.cfg.enabled:
             return
         counting = torch.ones_like(self.active) if eligible is None else eligible
         self.countdown -= counting.long()
-        ids = ((self.countdown <= 0) & counting).nonzero(as_tuple=False).squeeze(-1)
-        if len(ids) == 0:
-            return
-        n = len(ids)
-        angle = self._uniform(n, 0.0, 2 * math.pi)
-        speed = self._uniform(n, *self.cfg.velocity)
-        angle = torch.where(self.next_angle[ids].isnan(), angle, self.next_angle[ids])  # a requested push
-        speed = torch.where(self.next_speed[ids].isnan(), speed, self.next_speed[ids])
-        self.next_speed[ids], self.next_angle[ids] = math.nan, math.nan
+        due = (self.countdown <= 0) & counting
+        n = len(due)
+        angle = torch.where(self.next_angle.isnan(), self._uniform(n, 0.0, 2 * math.pi), self.next_angle)
+        speed = torch.where(self.next_speed.isnan(), self._uniform(n, *self.cfg.velocity), self.next_speed)
         direction = torch.stack([angle.cos(), angle.sin()], -1)
-        physics.qvel[ids, :2] += speed.unsqueeze(-1) * direction  # the free joint's world-frame linear velocity
-        self.direction[ids] = direction
-        self.origin[ids] = robot.base_pos[ids, :2]
-        self.com_origin[ids] = robot.com_pos[ids, :2]
-        self.origin_height[ids] = robot.base_pos[ids, 2]
-        yaw = yaw_of(robot.base_quat[ids])
-        cmd = commands[ids, :2]
-        self.ref_vel[ids] = torch.stack(
-            [yaw.cos() * cmd[:, 0] - yaw.sin() * cmd[:, 1], yaw.sin() * cmd[:, 0] + yaw.cos() * cmd[:, 1]], -1
-        )
-        self.elapsed[ids] = 0.0
-        self.max_deviation[ids] = 0.0
-        self.max_com_deviation[ids] = 0.0
-        self.window[ids] = self.window_steps
-        self.countdown[ids] = self._interval(n)
+        kick = torch.where(due, speed, 0.0).unsqueeze(-1) * direction
+        physics.qvel[:, :2] += kick.to(physics.qvel.dtype)  # the free joint's world-frame linear velocity
+        yaw = yaw_of(robot.base_quat)
+        cmd = commands[:, :2]
+        ref_vel = torch.stack(
+            [yaw.cos() * cmd[:, 0] - yaw.sin() * cmd[:, 1], yaw.sin() * cmd[:, 0] + yaw.cos() * cmd[:, 1]], -1)
+        pushed = {
+            "next_speed": math.nan, "next_angle": math.nan, "direction": direction, "origin": robot.base_pos[:, :2],
+            "com_origin": robot.com_pos[:, :2], "origin_height": robot.base_pos[:, 2], "ref_vel": ref_vel,
+            "elapsed": 0.0, "max_deviation": 0.0, "max_com_deviation": 0.0, "window": self.window_steps,
+            "countdown": self._interval(n),
+        }
+        for name, value in pushed.items():
+            current = getattr(self, name)
+            mask = due.view(-1, *([1] * (current.dim() - 1)))
+            current.copy_(torch.where(mask, value, current))  # a Python number stays on the host side
 
     def reference_offset(self) -> torch.Tensor:
         """[N, 2] v_ref t: how far the reference moved since the push."""

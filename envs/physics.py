@@ -80,9 +80,12 @@ class BatchedMuJoCo:
         # which restarts its clock: the state looks healthy, so diverged envs are recognised by their time.
         self.diverged = torch.from_numpy(np.abs(self.state[:, 0] - expected_time) > 0.5 * self.model.opt.timestep)
 
-    def sanitize(self, env_ids: torch.Tensor) -> None:
-        """Replace NaN and inf in these envs' state by 0 and clear their records (diverged envs, about to reset)."""
-        rows = torch.as_tensor(env_ids).numpy()
+    def sanitize(self, envs: torch.Tensor) -> None:
+        """Replace NaN and inf in these envs' state ([N] bool mask) by 0 and clear their records (diverged envs,
+        about to reset)."""
+        rows = np.flatnonzero(torch.as_tensor(envs).numpy())
+        if len(rows) == 0:
+            return
         self.state[rows] = np.nan_to_num(self.state[rows], nan=0.0, posinf=0.0, neginf=0.0)
         self.sensor_records[rows] = 0.0
         self.state_records[rows] = 0.0

@@ -137,15 +137,18 @@ class WarpMuJoCo:
         """Torch's current stream on a GPU, for Warp's eager work that torch's reads follow (resets)."""
         return wp.stream_from_torch(torch.cuda.current_stream(self.device)) if self.wp_device.is_cuda else None
 
-    def sanitize(self, env_ids: torch.Tensor) -> None:
-        """Zero these worlds' non-finite state, warm start and records (diverged worlds, about to reset)."""
+    def sanitize(self, envs: torch.Tensor) -> None:
+        """Zero the non-finite state, warm start and records of these worlds ([N] bool mask: diverged worlds,
+        about to reset), by masks over all worlds so that nothing waits on the device."""
         d = self.data
+        rows = envs.to(self.device)
         for field in (d.qpos, d.qvel, d.act, d.qacc_warmstart):
             values = wp.to_torch(field)
             if values.numel():
-                values[env_ids] = torch.nan_to_num(values[env_ids], nan=0.0, posinf=0.0, neginf=0.0)
-        self.substep_sensors[env_ids] = 0.0
-        self.substep_qvel[env_ids] = 0.0
+                clean = torch.nan_to_num(values, nan=0.0, posinf=0.0, neginf=0.0)
+                values.copy_(torch.where(rows.view(-1, *([1] * (values.dim() - 1))), clean, values))
+        for records in (self.substep_sensors, self.substep_qvel):
+            records.masked_fill_(rows.view(-1, *([1] * (records.dim() - 1))), 0.0)
 
     def set_qpos_qvel(self, env_ids: torch.Tensor, qpos: torch.Tensor, qvel: torch.Tensor) -> None:
         """Reset these worlds to (qpos, qvel) at rest (time 0, no actuator state, no warm start); a forward pass fills

@@ -24,25 +24,48 @@ LEGACY_ROUTING_SCALE = 10.0
 def sample_preferences(
     num: int, num_objectives: int, concentration: float = 1.0, generator: torch.Generator | None = None
 ) -> torch.Tensor:
-    """Draw ``num`` preferences from a symmetric Dirichlet(concentration). Returns [num, num_objectives].
+    """Draw ``num`` preferences from a symmetric Dirichlet(concentration). Returns [num, num_objectives], on the
+    generator's device.
 
-    Independent Gamma(concentration) samples divided by their sum are Dirichlet distributed.
+    Independent Gamma(concentration) samples divided by their sum are Dirichlet distributed. torch's Gamma sampler
+    takes no generator, so the Gamma draws are made here from the generator's own normal and uniform draws
+    (``gamma_log_samples``): reproducible from the generator alone, on any device, with no host synchronisation
+    (a GPU env resamples preferences at every reset).
     """
     if num_objectives < 2:
         raise ValueError(f"A preference needs at least 2 objectives, got num_objectives={num_objectives}.")
     if concentration <= 0:
         raise ValueError(f"The Dirichlet concentration must be > 0, got {concentration}.")
+    return torch.softmax(gamma_log_samples((num, num_objectives), concentration, generator), dim=-1)
+
+
+def gamma_log_samples(shape: tuple[int, ...], concentration: float, generator: torch.Generator | None = None,
+                      rounds: int = 16) -> torch.Tensor:
+    """log of Gamma(concentration, 1) samples, by Marsaglia and Tsang's squeeze-free method (ACM TOMS 26(3), 2000),
+    vectorised with a fixed number of rejection rounds so that no step waits on the device.
+
+    Each round accepts with probability above 0.95 (concentration >= 1), so 16 rounds leave a sample unaccepted with
+    probability below 1e-20; such a sample takes the proposal's centre, a - 1/3. Below 1 the draw is boosted:
+    Gamma(a) = Gamma(a + 1) U^(1/a), kept in log space where U^(1/a) would underflow.
+    """
     device = generator.device if generator is not None else "cpu"
-    # torch's Gamma sampler takes no generator: draw a seed from the generator and sample under a forked CPU RNG,
-    # so the result depends only on the generator and the global RNG is left untouched.
-    seed = int(torch.randint(0, 2**62, (1,), generator=generator, device=device).item())
-    with torch.random.fork_rng(devices=[]):
-        torch.manual_seed(seed)
-        gamma = torch.distributions.Gamma(
-            torch.full((num, num_objectives), float(concentration)), torch.ones(num, num_objectives)
-        ).sample()
-    lam = gamma / gamma.sum(dim=-1, keepdim=True)
-    return lam.to(device)
+    a = concentration + 1.0 if concentration < 1 else concentration
+    d = a - 1.0 / 3.0
+    c = 1.0 / (9.0 * d) ** 0.5
+    value = torch.full(shape, d, device=device)
+    accepted = torch.zeros(shape, dtype=torch.bool, device=device)
+    for _ in range(rounds):
+        x = torch.randn(shape, generator=generator, device=device)
+        u = torch.rand(shape, generator=generator, device=device)
+        v = (1.0 + c * x) ** 3
+        ok = (v > 0) & (u.log() < 0.5 * x**2 + d - d * v + d * v.clamp_min(1e-30).log())
+        value = torch.where(ok & ~accepted, d * v, value)
+        accepted |= ok
+    log_value = value.log()
+    if concentration < 1:
+        u = torch.rand(shape, generator=generator, device=device).clamp_min(torch.finfo(torch.float32).tiny)
+        log_value = log_value + u.log() / concentration
+    return log_value
 
 
 def _shown(values) -> str:
@@ -95,6 +118,12 @@ class EnvPreferences:
         lam = validate_preference(lam, self.num_objectives).to(self.values.device)
         self.held = lam.expand(self.num_envs, -1).clone()
         self.values[:] = self.held
+
+    def resample_where(self, mask: torch.Tensor) -> None:
+        """New preferences where ``mask`` ([N] bool) is set, without turning the mask into indices (no host sync)."""
+        fresh = self.held if self.held is not None else sample_preferences(
+            self.num_envs, self.num_objectives, self.concentration, self.generator).to(self.values.device)
+        self.values.copy_(torch.where(mask.unsqueeze(-1), fresh, self.values))
 
     def resample(self, env_ids: torch.Tensor | list[int]) -> None:
         """New preferences for these envs: the held ones, or fresh Dirichlet samples."""

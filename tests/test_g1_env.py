@@ -418,3 +418,74 @@ def test_held_joints_are_springs_at_the_default_pose_with_the_holding_gains():
     q = env.physics.qpos[0, waist.qposadr[0]]
     assert abs(float(q)) < 0.05  # held near 0 while the robot stands
     assert env.deploy_metadata()["held_joints"] == {"waist_yaw_joint": [300.0, 3.0], "left_wrist_roll_joint": [20.0, 1.0]}
+
+
+class HostSyncRecorder:
+    """Records the tensor operations of the env's own code that wait on the device on a GPU (item, nonzero, tolist,
+    bool/int/float of a tensor, boolean-mask indexing), by wrapping them. On the CPU they cost nothing, so this is
+    how a CPU test sees what torch.cuda.set_sync_debug_mode would flag on a GPU."""
+
+    WATCHED = ("item", "nonzero", "tolist", "__bool__", "__int__", "__float__")
+    OWN_CODE = (os.sep + "envs" + os.sep, os.sep + "preference.py")
+    CPU_ONLY = (os.sep + "physics.py",)  # the C MuJoCo backend runs on host memory by construction
+
+    def __init__(self, monkeypatch):
+        self.calls = []
+        for name in self.WATCHED:
+            monkeypatch.setattr(torch.Tensor, name, self._wrap(name, getattr(torch.Tensor, name)))
+        for name in ("__getitem__", "__setitem__"):
+            monkeypatch.setattr(torch.Tensor, name, self._wrap_index(name, getattr(torch.Tensor, name)))
+
+    def _caller(self):
+        import inspect
+
+        frame = inspect.currentframe().f_back.f_back
+        where = f"{frame.f_code.co_filename}:{frame.f_lineno}"
+        own = any(part in frame.f_code.co_filename for part in self.OWN_CODE)
+        return where if own and not any(p in frame.f_code.co_filename for p in self.CPU_ONLY) else None
+
+    def _wrap(self, name, original):
+        def wrapped(tensor, *args, **kwargs):
+            where = self._caller()
+            if where:
+                self.calls.append((name, where))
+            return original(tensor, *args, **kwargs)
+        return wrapped
+
+    def _wrap_index(self, name, original):
+        def wrapped(tensor, index, *args):
+            parts = index if isinstance(index, tuple) else (index,)
+            if any(isinstance(p, torch.Tensor) and p.dtype == torch.bool for p in parts):
+                where = self._caller()
+                if where:
+                    self.calls.append((f"mask {name}", where))
+            return original(tensor, index, *args)
+        return wrapped
+
+
+@pytest.mark.parametrize("task", ["g1-walk-fast", "g1-fall-recovery-fast"])
+def test_a_step_waits_on_the_device_only_for_the_reset_indices(monkeypatch, task):
+    """Issue 35: one host sync per step, the indices of the envs to reset (rsl-rl's own Logger makes the same one
+    at every step); pushes, the divergence check, preference resampling, the curriculum and the episode log work
+    on masks. The recorder can fail: a boolean-mask assignment in the env is caught (last lines)."""
+    from pchc_rsl.cli.common import make_env
+
+    cfg = task_config(task)
+    cfg.num_envs = 4
+    cfg.env.push.interval_s = (0.02, 0.05)  # pushes at almost every step
+    cfg.env.preference_resample_prob = 0.5
+    cfg.env.episode_length_s = 0.1  # time-outs, so resets happen inside the recorded steps
+    env = make_env(cfg)
+    actions = torch.zeros(cfg.num_envs, env.num_actions)
+    env.step(actions)
+    recorder = HostSyncRecorder(monkeypatch)
+    for _ in range(8):
+        env.step(actions)
+    syncs = {where: name for name, where in recorder.calls}
+    assert {name for name in syncs.values()} == {"nonzero"}, recorder.calls
+    assert len(syncs) == 1 and "g1_env.py" in next(iter(syncs)), recorder.calls
+    recorder.calls.clear()
+    namespace = {}  # code compiled as if it lived in envs/: the recorder catches its mask assignment
+    exec(compile("def clear(w):\n    w[w > 0] = 0\n", os.sep.join(["", "envs", "example.py"]), "exec"), namespace)
+    namespace["clear"](env.pushes.window)
+    assert [name for name, _ in recorder.calls] == ["mask __setitem__"]

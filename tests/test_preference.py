@@ -106,3 +106,25 @@ def test_dirichlet_rule_reduces_to_the_beta_rule_for_two_objectives():
     beta_rule = routing_weights(lam, x, alpha0=1.5, beta0=1.5, scale=8.0)
     dirichlet_rule = routing_weights(lam, expert_positions_on_simplex(x, 2), alpha0=1.5, scale=8.0)
     torch.testing.assert_close(beta_rule, dirichlet_rule)
+
+
+@pytest.mark.parametrize("concentration", [0.3, 0.5, 1.0, 2.5])
+def test_gamma_draws_follow_scipys_gamma(concentration):
+    """The generator-driven Gamma sampler (Marsaglia-Tsang, boosted below 1) against scipy's Gamma CDF."""
+    from pchc_rsl.preference import gamma_log_samples
+
+    samples = gamma_log_samples((40000,), concentration, torch.Generator().manual_seed(1)).exp().numpy()
+    assert stats.kstest(samples, stats.gamma(concentration).cdf).pvalue > 1e-3
+
+
+@pytest.mark.parametrize("concentration", [0.5, 2.0])
+def test_two_objective_preferences_follow_the_beta_density(concentration):
+    """lambda_1 of a symmetric Dirichlet(a, a) is Beta(a, a)."""
+    lam = sample_preferences(40000, 2, concentration, generator=torch.Generator().manual_seed(2))
+    assert stats.kstest(lam[:, 0].numpy(), stats.beta(concentration, concentration).cdf).pvalue > 1e-3
+
+
+def test_a_sampler_that_ignores_the_shape_fails_the_beta_test():
+    """The KS test above can fail: uniform draws are not Beta(0.5, 0.5)."""
+    uniform = torch.rand(40000, generator=torch.Generator().manual_seed(2)).numpy()
+    assert stats.kstest(uniform, stats.beta(0.5, 0.5).cdf).pvalue < 1e-6

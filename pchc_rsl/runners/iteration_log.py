@@ -14,6 +14,8 @@ import re
 import statistics
 from collections.abc import Callable
 
+import torch
+
 from rsl_rl.utils.logger import Logger
 
 ANSI_ESCAPE = re.compile(r"\x1b\[[0-9;]*m")
@@ -46,6 +48,7 @@ class IterationLogger(Logger):
             self.guard(it, loss_dict)
         losses = {k: v for k, v in loss_dict.items() if "/" not in k}
         diagnostics = {k: v for k, v in loss_dict.items() if "/" in k}
+        self._drop_undefined()
         line = self.summary_line(it, start_it, total_it, collect_time + learn_time)  # before rsl-rl clears extras
         block = io.StringIO()
         with contextlib.redirect_stdout(block):
@@ -81,14 +84,27 @@ class IterationLogger(Logger):
             parts.append(f"ETA {datetime.timedelta(seconds=round(per_iteration * remaining))}")
         return " | ".join(parts)
 
+    def _drop_undefined(self) -> None:
+        """Leave NaN out of the env's per-episode values (a metric an episode did not define, e.g. the deviation of
+        an episode without a push) before rsl-rl averages them; done once per iteration, so the env's steps never
+        wait on the device to find them."""
+        for extras in self.ep_extras:
+            for key, value in list(extras.items()):
+                if isinstance(value, torch.Tensor) and value.is_floating_point():
+                    kept = value.reshape(-1)[~value.reshape(-1).isnan()]
+                    if len(kept):
+                        extras[key] = kept
+                    else:
+                        del extras[key]
+
     def _episode_means(self) -> dict[str, float]:
-        """Mean over this iteration's finished episodes of each scalar the env logged under extras['log']."""
-        sums: dict[str, list[float]] = {}
+        """Mean over this iteration's finished episodes of each scalar the env logged under extras['log'] (as
+        rsl-rl's Logger takes it: every logged value counts once, a step's vector of episodes value by value)."""
+        values: dict[str, list[torch.Tensor]] = {}
         for extras in self.ep_extras:
             for key, value in extras.items():
                 try:
-                    sums.setdefault(key, []).append(float(value.float().mean()) if hasattr(value, "float")
-                                                    else float(value))
+                    values.setdefault(key, []).append(torch.as_tensor(value, dtype=torch.float32).reshape(-1).cpu())
                 except (TypeError, ValueError, RuntimeError):
                     continue
-        return {k: statistics.mean(v) for k, v in sums.items() if v}
+        return {k: float(torch.cat(v).mean()) for k, v in values.items() if v and sum(len(t) for t in v)}
