@@ -4,8 +4,8 @@ interface (``physics.py``).
 The env reads torch views of Warp's own arrays (``wp.to_torch``: no copies), so observations and rewards stay on
 the device. Per-env physical randomisation keeps its bounded set of model variants: every model field in which the
 variants differ gets a leading batch dimension of V, and world i reads variant i mod V, as on the C backend. On a
-CUDA device the substep loop is captured once as a CUDA graph, on a stream made for it (CUDA refuses to capture on
-the legacy default stream torch uses), and replayed every step.
+CUDA device the substep loop and a reset's forward pass are each captured once as a CUDA graph, on a stream made
+for it (CUDA refuses to capture on the legacy default stream torch uses), and replayed (as mjlab does).
 
 Differences from C MuJoCo: Warp computes in float32, and it does not reset a diverged world by itself (a diverged
 world shows as non-finite or absurd velocities, which the env catches and resets). A reset runs a forward pass on
@@ -92,7 +92,8 @@ class WarpMuJoCo:
         self.body_forces = wp.to_torch(d.xfrc_applied) if with_body_forces else None
         self.diverged = torch.zeros(num_envs, dtype=torch.bool, device=self.device)
         """Always False: Warp does not reset a diverged world (the env's NaN and velocity checks catch it)."""
-        self._graph = None
+        self._graphs: dict[str, object] = {}
+        """CUDA graphs by name: the substep loop, and the forward pass of a reset."""
         self._capture_stream = None
         if self.wp_device.is_cuda:
             self._capture_stream = wp.Stream(self.wp_device)
@@ -113,24 +114,30 @@ class WarpMuJoCo:
         [N, K, nu] (an action delay), and ``body_forces``."""
         per_substep = wp.to_torch(self._ctrl_substeps)  # [K, N, nu]: read by each substep inside the graph
         per_substep.copy_(ctrl.permute(1, 0, 2) if ctrl.ndim == 3 else ctrl.unsqueeze(0).expand_as(per_substep))
+        self._launch("substeps", lambda: self._substeps())
+
+    def _launch(self, name: str, work_fn) -> None:
+        """Run ``work_fn`` (Warp launches only): eagerly on the CPU; on CUDA captured once as a graph named ``name``
+        and replayed from then on (the first call runs it eagerly, which also loads every kernel before capture).
+
+        CUDA cannot capture on the legacy default stream, which torch uses unless told otherwise: graphs are captured
+        on and replayed from a stream of their own, ordered after torch's work (the control copy, a reset's writes)
+        and before torch's next reads (observations) by explicit waits."""
         with wp.ScopedDevice(self.wp_device):
             if not self.wp_device.is_cuda:
-                self._substeps()
+                work_fn()
                 return
-            # CUDA cannot capture on the legacy default stream, which torch uses unless told otherwise: the graph is
-            # captured on and replayed from a stream of its own, ordered after torch's work (the control copy) and
-            # before torch's next reads (observations) by explicit waits.
             torch_stream = self._stream()
             work = self._capture_stream
             work.wait_stream(torch_stream)
             with wp.ScopedStream(work, sync_enter=False):
-                if self._graph is not None:
-                    wp.capture_launch(self._graph, stream=work)
+                if name in self._graphs:
+                    wp.capture_launch(self._graphs[name], stream=work)
                 else:
-                    self._substeps()  # eagerly: the first step also loads every kernel before the capture
+                    work_fn()
                     with wp.ScopedCapture(device=self.wp_device, stream=work) as capture:  # records, runs nothing
-                        self._substeps()
-                    self._graph = capture.graph
+                        work_fn()
+                    self._graphs[name] = capture.graph
             torch_stream.wait_stream(work)
 
     def _stream(self):
@@ -166,8 +173,7 @@ class WarpMuJoCo:
     def _forward_and_record(self, ids) -> None:
         """mjw.forward on every world (the state stays), then every substep slot of these worlds' records holds
         their current sensors and joint velocities."""
-        with wp.ScopedDevice(self.wp_device), wp.ScopedStream(self._stream()):
-            mjw.forward(self.wp_model, self.data)
+        self._launch("forward", lambda: mjw.forward(self.wp_model, self.data))
         self.substep_sensors[ids] = wp.to_torch(self.data.sensordata)[ids].unsqueeze(1)
         self.substep_qvel[ids] = self.qvel[ids].unsqueeze(1)
 

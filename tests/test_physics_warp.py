@@ -155,3 +155,17 @@ def test_cuda_graph_is_captured_and_replayed_on_its_own_stream_ordered_with_torc
     calls.clear()
     physics.step(ctrl)
     assert calls == [("wait", "own", "torch"), ("on", "own"), ("launch", "graph", "own"), ("wait", "torch", "own")]
+    # a reset's forward pass: its own graph, captured at the first reset, replayed at the next (not the step's)
+    monkeypatch.setattr(physics_warp.mjw, "forward", lambda model, data: calls.append(("forward",)))
+    monkeypatch.setattr(Capture, "__init__", lambda self, device=None, stream=None: (
+        calls.append(("capture", stream.name)), setattr(self, "graph", "forward graph"))[0])
+    qpos, qvel = physics.qpos[:1].double().clone(), physics.qvel[:1].double().clone()
+    calls.clear()
+    physics.set_qpos_qvel(torch.tensor([0]), qpos, qvel)
+    assert calls == [("wait", "own", "torch"), ("on", "own"), ("forward",), ("capture", "own"), ("forward",),
+                     ("wait", "torch", "own")]
+    calls.clear()
+    physics.set_qpos_qvel(torch.tensor([1]), qpos, qvel)
+    physics.step(ctrl)
+    assert calls == [("wait", "own", "torch"), ("on", "own"), ("launch", "forward graph", "own"), ("wait", "torch", "own"),
+                     ("wait", "own", "torch"), ("on", "own"), ("launch", "graph", "own"), ("wait", "torch", "own")]
