@@ -137,16 +137,26 @@ def disturbance(env, vertical: bool = False, fall_cost: float = 0.0) -> torch.Te
     if vertical:
         position = torch.cat([position, pushes.height_change(env.robot).unsqueeze(-1)], dim=-1)
     reward = pushes.active * (-position.norm(dim=-1) - pushes.relative_velocity_along_push(env.robot))
-    if fall_cost:
-        reward = reward - fall_cost / env.dt * env.fell_this_step().float()  # RewardGroups multiplies by dt
-    return reward
+    return reward - charged_fall(env, fall_cost)
 
 
-def energy(env, k_tau: float, k_p: float) -> torch.Tensor:
-    """The paper's r_energy = -k_tau sum_j tau_j^2 - k_p sum_j |dq_j| |tau_j|, averaged over the physics substeps."""
+def charged_fall(env, fall_cost: float) -> torch.Tensor:
+    """[N] fall_cost / dt where the robot fell at this step (RewardGroups multiplies by dt: a fall costs fall_cost
+    of return, once), else 0."""
+    if not fall_cost:
+        return torch.zeros(env.num_envs, device=env.device)
+    return fall_cost / env.dt * env.fell_this_step().float()
+
+
+def energy(env, k_tau: float, k_p: float, fall_cost: float = 0.0) -> torch.Tensor:
+    """The paper's r_energy = -k_tau sum_j tau_j^2 - k_p sum_j |dq_j| |tau_j|, averaged over the physics substeps.
+
+    ``fall_cost``: as r_disturb's. A fall that ends the episode (``terminate_on_fall``) also ends r_energy's cost,
+    so without it falling after standing is the cheapest way to save energy at lambda = (1, 0): that end stood up
+    through mild pushes in 31% of episodes against 97% at (0.5, 0.5) (stop 40). Not in the paper's equation."""
     tau, dq = env.robot.torques_substeps, env.robot.joint_vel_substeps  # [N, K, J]
     per_substep = -k_tau * (tau**2).sum(-1) - k_p * (dq.abs() * tau.abs()).sum(-1)
-    return per_substep.mean(dim=1)
+    return per_substep.mean(dim=1) - charged_fall(env, fall_cost)
 
 
 def pelvis_height(env, target: float) -> torch.Tensor:

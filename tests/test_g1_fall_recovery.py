@@ -103,19 +103,23 @@ def test_a_fall_after_standing_ends_the_episode_only_with_terminate_on_fall(term
     assert env.episode_length_buf[0].item() == (0 if terminate else 1)  # a terminated episode restarts
 
 
-def test_fall_cost_charges_r_disturb_once_at_the_first_fall_after_standing():
-    """fall_cost 2.0: env 0 stood earlier and lies below the fall height, so its disturbance group gets -2.0 at the
-    first step (times the term's weight 1) and nothing at the next; env 1 never stood, so lying costs it nothing."""
+@pytest.mark.parametrize("objective", ["disturbance", "energy"])
+def test_fall_cost_charges_an_objective_once_at_the_first_fall_after_standing(objective):
+    """fall_cost 2.0: env 0 stood earlier and lies below the fall height, so the objective's group gets 2.0 less at
+    the first step (times the term's weight 1) than without the cost, and the same at the next; env 1 never stood,
+    so lying costs it nothing."""
     from pchc_rsl.configs.g1_fall_recovery import fall_recovery_rewards
 
-    rewards = fall_recovery_rewards()
-    for term in rewards:
-        if term.group == "disturbance":
-            term.params = {"fall_cost": 2.0}
-    env = make_env(num_envs=2, rewards=rewards)
-    env.reached_standing[0] = True
-    disturbance = env.rewards.index["disturbance"]
-    first = env.step(torch.zeros(2, 23))[3]["reward_groups"][:, disturbance]
-    second = env.step(torch.zeros(2, 23))[3]["reward_groups"][:, disturbance]
-    torch.testing.assert_close(first, torch.tensor([-2.0, 0.0]))
-    torch.testing.assert_close(second, torch.tensor([0.0, 0.0]))
+    def groups(fall_cost):
+        rewards = fall_recovery_rewards()
+        for term in rewards:
+            if term.group == objective:
+                term.params = {**term.params, "fall_cost": fall_cost}
+        env = make_env(num_envs=2, rewards=rewards)
+        env.reached_standing[0] = True
+        column = env.rewards.index[objective]
+        return [env.step(torch.zeros(2, 23))[3]["reward_groups"][:, column] for _ in range(2)]
+
+    (first, second), (first_free, second_free) = groups(2.0), groups(0.0)
+    torch.testing.assert_close(first - first_free, torch.tensor([-2.0, 0.0]))
+    torch.testing.assert_close(second - second_free, torch.tensor([0.0, 0.0]))
