@@ -31,6 +31,10 @@ ARM_JOINTS_RECOVERY = [
 ]
 WALK_JOINTS = LEG_JOINTS + ARM_JOINTS_WALK  # 20
 FALL_RECOVERY_JOINTS = LEG_JOINTS + ["waist_yaw_joint"] + ARM_JOINTS_RECOVERY  # 23
+WAIST_JOINTS = ["waist_yaw_joint", "waist_roll_joint", "waist_pitch_joint"]
+WRIST_JOINTS = [f"{side}_wrist_{axis}_joint" for side in ("left", "right") for axis in ("roll", "pitch", "yaw")]
+WALK_HELD_JOINTS = WAIST_JOINTS + WRIST_JOINTS  # 9: with WALK_JOINTS, all 29
+FALL_RECOVERY_HELD_JOINTS = [j for j in WAIST_JOINTS + WRIST_JOINTS if j not in FALL_RECOVERY_JOINTS]  # 6
 
 
 @dataclass(frozen=True)
