@@ -9,9 +9,9 @@ from __future__ import annotations
 
 from pchc_rsl.configs.base import TaskConfig
 from pchc_rsl.configs.g1_training import g1_task_config
-from pchc_rsl.envs.g1_env import PushConfig, RewardTerm
+from pchc_rsl.envs.g1_env import PushConfig, RandomizationConfig, RewardTerm
 from pchc_rsl.envs.g1_fall_recovery import FallRecoveryConfig
-from pchc_rsl.robots.g1.constants import FALL_RECOVERY_JOINTS
+from pchc_rsl.robots.g1.constants import FALL_RECOVERY_HELD_JOINTS, FALL_RECOVERY_JOINTS
 
 R = "pchc_rsl.envs.g1_rewards:"
 
@@ -26,9 +26,10 @@ def fall_recovery_rewards() -> list[RewardTerm]:
         # regularisation and style
         RewardTerm(R + "action_rate", -0.01),
         RewardTerm(R + "joint_limits", -5.0),
-        # objectives, raw
-        RewardTerm(R + "energy", 1.0, group="energy", params={"k_tau": 1e-4, "k_p": 1e-3}),
-        RewardTerm(R + "disturbance", 1.0, group="disturbance"),
+        # objectives, raw; a fall after standing costs 5 in each (it ends the episode, and with it both costs:
+        # without the charge falling was the cheapest answer to a push at either end)
+        RewardTerm(R + "energy", 1.0, group="energy", params={"k_tau": 1e-4, "k_p": 1e-3, "fall_cost": 5.0}),
+        RewardTerm(R + "disturbance", 1.0, group="disturbance", params={"fall_cost": 5.0}),
     ]
 
 
@@ -40,8 +41,15 @@ def fall_recovery_env(fast: bool = False) -> FallRecoveryConfig:
         initial_joint_noise=0.3,
         objective_names=["energy", "disturbance"],
         rewards=fall_recovery_rewards(),
-        # pushes test the stood-up robot (r_disturb, COM displacement); HoST trains getting up without pushes
-        push=PushConfig(only_when_standing=True),
+        held_joints=list(FALL_RECOVERY_HELD_JOINTS),  # as the robot holds them (pchc-deploy)
+        # pushes test the stood-up robot (r_disturb, COM displacement); HoST trains getting up without pushes. The
+        # range spans the calibrated evaluation presets (mild 2.25, strong 2.5 m/s).
+        push=PushConfig(velocity=(0.5, 2.75), only_when_standing=True),
+        action_delay_s=(0.0, 0.02),  # a robot's 0-20 ms from sensing to actuation
+        randomization=RandomizationConfig(added_base_mass=(-1.0, 5.0), actuator_strength=(0.8, 1.1)),
+        critic_push_timing=True,  # the critic sees the time left in the push window and to the next push
+        preference_concentration=0.5,  # more training preferences near the ends
+        terminate_on_fall=True,
         assist_level_step=0.1,  # HoST: 20 of 200 N per step
     )
 
