@@ -43,12 +43,14 @@ def test_shipped_walker_stays_up_and_strides_longer_at_the_stride_end(tmp_path):
     from pchc_rsl.cli import eval as eval_cli
 
     pt = shipped("g1_walk")
-    eval_cli.main([pt, "--num-envs", "16", "--episodes", "1", "--preference", "1,0", "--preference", "0,1",
-                   "--output", str(tmp_path)])
+    # 64 episodes: the walker of stop 40 falls in 6% of mild-push episodes at (0, 1) (256 episodes), and 16 episodes
+    # drew 3 falls in one seed; the bar (12.5%) is the same
+    eval_cli.main([pt, "--num-envs", "64", "--episodes", "1", "--preference", "1,0", "--preference", "0,1",
+                   "--push-presets", "mild", "--output", str(tmp_path)])
     rows = json.loads((tmp_path / "results.json").read_text())["results"][0]["rows"]
     by_preference = {tuple(row["preference"]): row["metrics"] for row in rows}
     stability, stride = by_preference[(1.0, 0.0)], by_preference[(0.0, 1.0)]
-    assert stability["fall_rate"] <= 12.5 and stride["fall_rate"] <= 12.5  # at most 2 of 16 episodes
+    assert stability["fall_rate"] <= 12.5 and stride["fall_rate"] <= 12.5  # at most 8 of 64 episodes
     assert stride["stride_length"] > stability["stride_length"] + 0.03
 
 
