@@ -140,11 +140,11 @@ def disturbance(env, vertical: bool = False, fall_cost: float = 0.0) -> torch.Te
     return reward - charged_fall(env, fall_cost)
 
 
-def charged_fall(env, fall_cost: float) -> torch.Tensor:
+def charged_fall(env, fall_cost: float) -> torch.Tensor | float:
     """[N] fall_cost / dt where the robot fell at this step (RewardGroups multiplies by dt: a fall costs fall_cost
-    of return, once), else 0."""
+    of return, once), else 0; without a cost just 0, so the terms that take none allocate nothing per step."""
     if not fall_cost:
-        return torch.zeros(env.num_envs, device=env.device)
+        return 0.0
     return fall_cost / env.dt * env.fell_this_step().float()
 
 

@@ -114,7 +114,7 @@ class WarpMuJoCo:
         [N, K, nu] (an action delay), and ``body_forces``."""
         per_substep = wp.to_torch(self._ctrl_substeps)  # [K, N, nu]: read by each substep inside the graph
         per_substep.copy_(ctrl.permute(1, 0, 2) if ctrl.ndim == 3 else ctrl.unsqueeze(0).expand_as(per_substep))
-        self._launch("substeps", lambda: self._substeps())
+        self._launch("substeps", self._substeps)
 
     def _launch(self, name: str, work_fn) -> None:
         """Run ``work_fn`` (Warp launches only): eagerly on the CPU; on CUDA captured once as a graph named ``name``

@@ -91,7 +91,8 @@ class IterationLogger(Logger):
         for extras in self.ep_extras:
             for key, value in list(extras.items()):
                 if isinstance(value, torch.Tensor) and value.is_floating_point():
-                    kept = value.reshape(-1)[~value.reshape(-1).isnan()]
+                    flat = value.reshape(-1)
+                    kept = flat[~flat.isnan()]
                     if len(kept):
                         extras[key] = kept
                     else:
