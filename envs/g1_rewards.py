@@ -45,6 +45,22 @@ def single_stance(env, min_command: float = 0.1) -> torch.Tensor:
     return (env.feet.contact.sum(-1) == 1).float() * moving
 
 
+def backward_touchdown(env, min_command: float = 0.1) -> torch.Tensor:
+    """Touchdowns (count) whose step points backward, along the base heading, while a speed of at least
+    ``min_command`` is commanded. Why: the walker of stop 40 landed 8-15% of its steps behind where the foot lifted
+    off; most were short shuffles (2-10 cm back, 0.08-0.1 s in the air), outside the push windows and in the first
+    second of walking. r_stride pays such a stance nothing but charges nothing either; the evaluation counts them."""
+    moving = env.commands[:, :2].norm(dim=-1) >= min_command
+    backward = env.feet.first_contact & (env.feet.step_vector[..., 0] < 0)
+    return backward.float().sum(-1) * moving
+
+
+def fall(env) -> torch.Tensor:
+    """1 / dt where the robot fell at this step, else 0: with weight -c a fall costs c of return, once (a term of the
+    task group, so every preference pays it; the objectives' ``fall_cost`` charges it to one objective only)."""
+    return charged_fall(env, 1.0)
+
+
 def joint_deviation(env, joints: list[str]) -> torch.Tensor:
     """sum_j (q_j - q_default_j)^2 over the env's joints whose names contain one of ``joints`` (e.g. "hip_roll"):
     unitree_rl_gym's G1 hip_pos term, which keeps the legs from splaying into a straddle."""

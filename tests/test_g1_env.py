@@ -330,6 +330,32 @@ def test_walking_fall_cost_charges_a_terminating_fall():
     torch.testing.assert_close(reward * env.dt, torch.tensor([-2.0, 0.0]))
 
 
+def test_backward_touchdown_counts_feet_landing_behind_while_walking_is_commanded():
+    """Env 0: the left foot lands 5 cm back (1), the right foot 30 cm ahead (0); env 1: both land 2 cm back (2); env 2
+    lands back but is told to stand (0); env 3: a backward step held in stance, no touchdown this step (0)."""
+    from pchc_rsl.envs import g1_rewards
+
+    env = make_walk_env(num_envs=4)
+    feet = env.feet
+    feet.first_contact = torch.tensor([[True, True], [True, True], [True, False], [False, False]])
+    feet.step_vector = torch.tensor([[[-0.05, 0.0], [0.3, 0.1]], [[-0.02, 0.0], [-0.02, 0.0]],
+                                     [[-0.1, 0.0], [0.0, 0.0]], [[0.0, 0.0], [0.0, 0.0]]])
+    feet.stance_step = torch.tensor([[[0.0, 0.0], [0.0, 0.0]]] * 3 + [[[-0.1, 0.0], [0.0, 0.0]]])
+    env.commands[:] = torch.tensor([[0.5, 0, 0], [0.5, 0, 0], [0.0, 0, 0], [0.5, 0, 0]])
+    torch.testing.assert_close(g1_rewards.backward_touchdown(env), torch.tensor([1.0, 2.0, 0.0, 0.0]))
+
+
+def test_fall_term_costs_its_weight_once_at_the_fall():
+    """The task group's fall: env 0's pelvis is below termination_height, so weight -5 costs 5 of return (x dt)."""
+    from pchc_rsl.envs import g1_rewards
+
+    env = make_walk_env(num_envs=2)
+    robot = env.robot
+    robot.base_pos = robot.base_pos.clone()
+    robot.base_pos[0, 2] = env.cfg.termination_height - 0.1
+    torch.testing.assert_close(-5.0 * g1_rewards.fall(env) * env.dt, torch.tensor([-5.0, 0.0]))
+
+
 def test_gait_metrics_of_a_scripted_walk_and_of_backward_side_taps():
     """Strides of 0.6 m at 0.5 m/s (a 1.2 s cycle, each foot 0.48 s in the air): 0.83 touchdowns per foot per
     second, forward step 0.6 m, no side step or backward touchdown, median air time 0.48 s. Then a foot tapping
