@@ -3,6 +3,7 @@ import math
 
 import numpy as np
 import pytest
+import torch
 
 from test_g1_env import pytestmark  # noqa: F401  (skip without the G1 model)
 
@@ -97,6 +98,23 @@ def test_settle_time_of_a_step_change():
     assert settle_time(curve, 100, 0.02) == pytest.approx(0.9)
     assert math.isnan(settle_time(curve[:, 1:], 100, 0.02))
     assert math.isnan(settle_time(curve, 20, 0.02))  # under 1 s before the switch
+
+
+def test_every_walking_evaluation_episode_is_commanded_the_evaluation_speed():
+    """Walking trains with 15% standing episodes; the evaluation's 0.5 m/s must hold in all of them (it did not
+    before stop 41: 15% of the gait table's episodes were told to stand)."""
+    from pchc_rsl.cli.common import make_env
+    from pchc_rsl.configs import task_config
+    from pchc_rsl.evaluation import evaluation_preset
+
+    cfg = task_config("g1-walk-fast")
+    assert cfg.env.zero_command_probability > 0  # what the preset has to undo
+    cfg = evaluation_preset(cfg, "mild", WALK_EVALUATION)
+    cfg.num_envs = 128
+    env = make_env(cfg)
+    env.reset()
+    expected = torch.tensor(WALK_EVALUATION.command).expand(128, 3)
+    torch.testing.assert_close(env.commands, expected)
 
 
 def test_push_presets_are_the_calibrated_speeds_per_task_and_the_v1_ones_stay_by_name():

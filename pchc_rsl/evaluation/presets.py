@@ -115,8 +115,9 @@ def evaluation_preset(cfg, push_preset: str, evaluation: TaskEvaluation):
     env.push.only_when_standing = evaluation.push_only_when_standing
     if hasattr(env, "curriculum"):
         env.curriculum = False
-    if evaluation.command is not None:
+    if evaluation.command is not None:  # every episode: training's standing episodes would dilute the gait figures
         vx, vy, wz = evaluation.command
         env.command_ranges = {"lin_vel_x": (vx, vx), "lin_vel_y": (vy, vy), "ang_vel_z": (wz, wz)}
+        env.zero_command_probability = 0.0
     return cfg
 
