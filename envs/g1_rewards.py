@@ -135,7 +135,7 @@ def stride(env, along_heading: bool = True, min_command: float = 0.1, speed_std:
     return reward
 
 
-def disturbance(env, vertical: bool = False, fall_cost: float = 0.0) -> torch.Tensor:
+def disturbance(env, vertical: bool = False, fall_cost: float = 0.0, com: bool = False) -> torch.Tensor:
     """The paper's r_disturb = 1_after-disturb (-||x_base - x_ref|| - |(v_base - v_ref) . d|).
 
     Both terms are relative to the same reference: x_ref = x_last + v_ref t moves at the commanded velocity v_ref
@@ -148,9 +148,13 @@ def disturbance(env, vertical: bool = False, fall_cost: float = 0.0) -> torch.Te
     cheapest answer to a strong push under r_disturb alone: the displacement terms stop when the episode ends or,
     for a fallen robot that is no longer pushed, stay small, so weighting r_disturb more made strong pushes topple
     the policy more often, the opposite of the paper's Table I (docs/results/g1.md). Not in the paper's equation.
+
+    ``com``: x_base is the whole-body COM instead of the pelvis, the point whose displacement Table I reports.
+    With the pelvis, the fall-recovery policies held the pelvis and let the COM move: their COM displacement was
+    highest at the disturbance end (docs/results/g1_retraining.md).
     """
     pushes = env.pushes
-    position = pushes.deviation(env.robot)
+    position = pushes.com_deviation(env.robot) if com else pushes.deviation(env.robot)
     if vertical:
         position = torch.cat([position, pushes.height_change(env.robot).unsqueeze(-1)], dim=-1)
     reward = pushes.active * (-position.norm(dim=-1) - pushes.relative_velocity_along_push(env.robot))

@@ -280,6 +280,22 @@ def test_vertical_r_disturb_adds_the_height_change_since_the_push():
     assert g1_rewards.disturbance(env, vertical=True).item() == pytest.approx(-(0.3**2 + 0.5**2) ** 0.5, abs=1e-6)
 
 
+def test_com_r_disturb_charges_the_whole_body_com_instead_of_the_pelvis():
+    """The pelvis held on its push origin while the COM drifted 0.2 m: 0 by the pelvis, -0.2 by the COM."""
+    from pchc_rsl.envs import g1_rewards
+
+    env = make_walk_env(num_envs=1)
+    env.commands[:] = 0.0
+    push_now(env)
+    pushes, robot = env.pushes, env.robot
+    robot.base_pos, robot.com_pos = robot.base_pos.clone(), robot.com_pos.clone()
+    robot.base_lin_vel_w = torch.zeros_like(robot.base_lin_vel_w)
+    robot.base_pos[0, :2] = pushes.origin[0]
+    robot.com_pos[0, :2] = pushes.com_origin[0] + torch.tensor([0.12, -0.16])
+    assert g1_rewards.disturbance(env).item() == pytest.approx(0.0, abs=1e-6)
+    assert g1_rewards.disturbance(env, com=True).item() == pytest.approx(-0.2, abs=1e-6)
+
+
 def test_reset_restores_a_valid_standing_state():
     env = make_walk_env(num_envs=2)
     for _ in range(5):
