@@ -26,10 +26,13 @@ def fall_recovery_rewards() -> list[RewardTerm]:
         # regularisation and style
         RewardTerm(R + "action_rate", -0.01),
         RewardTerm(R + "joint_limits", -5.0),
-        # objectives, raw; a fall after standing costs 5 in each (it ends the episode, and with it both costs:
-        # without the charge falling was the cheapest answer to a push at either end)
+        # objectives, raw; a fall after standing costs 5 of energy return and 10 of disturbance return (it ends
+        # the episode, and with it both costs: without the charge falling was the cheapest answer to a push at
+        # either end). At 5 in both, strong pushes toppled the disturbance end most (88.7% success, 256 episodes);
+        # at 10 (stop 42) it stays up in 91% and the energy grows with lambda_2 at every step. r_disturb charges
+        # the whole-body COM, the point Table I measures.
         RewardTerm(R + "energy", 1.0, group="energy", params={"k_tau": 1e-4, "k_p": 1e-3, "fall_cost": 5.0}),
-        RewardTerm(R + "disturbance", 1.0, group="disturbance", params={"fall_cost": 5.0}),
+        RewardTerm(R + "disturbance", 1.0, group="disturbance", params={"fall_cost": 10.0, "com": True}),
     ]
 
 
