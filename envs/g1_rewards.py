@@ -149,10 +149,9 @@ def disturbance(env, vertical: bool = False, fall_cost: float = 0.0, com: bool =
     for a fallen robot that is no longer pushed, stay small, so weighting r_disturb more made strong pushes topple
     the policy more often, the opposite of the paper's Table I (docs/results/g1.md). Not in the paper's equation.
 
-    ``com``: x_base is the whole-body COM instead of the pelvis, the point whose displacement Table I reports.
-    With the pelvis, the fall-recovery policies held the pelvis and let the COM move: their COM displacement was
-    highest at the disturbance end (docs/results/g1_retraining.md).
-    """
+    ``com``: x_base is the whole-body COM instead of the pelvis, the point whose displacement Table I reports, so
+    the reward charges what the table measures (in the fall-recovery policies measured so far the two moved within
+    0.04 m of each other after a push; docs/results/g1_retraining.md, "Stop 42")."""
     pushes = env.pushes
     position = pushes.com_deviation(env.robot) if com else pushes.deviation(env.robot)
     if vertical:

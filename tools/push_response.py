@@ -20,7 +20,7 @@ from pchc_rsl.evaluation import evenly_spaced_preferences
 
 def push_response(env, policy, preference) -> dict[str, float]:
     """Roll one episode per env at ``preference``; sums over every step inside a push window (COM displacement:
-    windows that ran to their end, not those cut by a fall)."""
+    windows that ran to their end, not those cut by the episode's end, a fall or the time-out)."""
     touchdowns, window_steps, displacements, steps = 0.0, 0.0, [], []
     with torch.inference_mode():
         env.set_preference(preference)
