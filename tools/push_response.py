@@ -1,5 +1,6 @@
-"""How a G1 policy answers a push, per preference: in the window after each push, foot touchdowns per second, the
-median step length, and the whole-body COM's largest displacement, under the task's mild evaluation preset.
+"""How a G1 policy answers a push, per preference: in the window after each push (the preset's: 3 s for fall
+recovery, until the next push; 1 s for walking), foot touchdowns per second, the median step length, and the
+whole-body COM's largest displacement, under the task's mild evaluation preset.
 
     python tools/push_response.py policies/g1_fall_recovery.pt --num-envs 64
     python tools/push_response.py policies/g1_walk.pt env.push.velocity=1.5,1.5
@@ -56,7 +57,9 @@ def main() -> None:
     from pchc_rsl.cli.play import load_policy
 
     _, env, policy = load_policy(args.checkpoint, args.num_envs, args.seed, None, None, args.overrides)
-    print(f"{args.checkpoint}, {args.num_envs} episodes per preference, mild preset {args.overrides or ''}")
+    push = env.cfg.push
+    print(f"{args.checkpoint}, {args.num_envs} episodes per preference, pushes of {push.velocity[0]:g} m/s, "
+          f"window {push.window_s:g} s {args.overrides or ''}")
     print("| Preference | Windows | Touchdowns /s | Median step (m) | COM displacement (m) |")
     print("|---|---|---|---|---|")
     for preference in evenly_spaced_preferences(args.preferences):
