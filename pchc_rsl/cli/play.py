@@ -12,6 +12,7 @@ import argparse
 import math
 import os
 import sys
+import threading
 import time
 from collections import deque
 
@@ -374,8 +375,10 @@ def run_viewer(env, policy, preference, seconds: float | None) -> int:
     model = visual_model(env)
     data = mujoco.MjData(model)
     controls = LiveControls(env)
+    before = set(threading.enumerate())
     handle = mujoco.viewer.launch_passive(model, data, key_callback=controls.on_key, show_left_ui=False,
                                           show_right_ui=False)
+    viewer_threads = [thread for thread in threading.enumerate() if thread not in before]
     steps, falls = 0, 0
     try:
         with handle.lock():
@@ -410,6 +413,10 @@ def run_viewer(env, policy, preference, seconds: float | None) -> int:
                 time.sleep(max(0.0, env.dt - (time.perf_counter() - start)))
     finally:
         handle.close()
+        # close() only asks the viewer's (daemon) thread to stop; exiting before its render loop has finished lets
+        # GLFW terminate under a frame still being swapped (GLXBadDrawable, a segfault at exit under Xvfb)
+        for thread in viewer_threads:
+            thread.join(timeout=10.0)
     return steps
 
 
