@@ -12,7 +12,6 @@ import argparse
 import math
 import os
 import sys
-import threading
 import time
 from collections import deque
 
@@ -367,20 +366,17 @@ def watch_checkpoint(checkpoint: str, preference, args) -> None:
 def run_viewer(env, policy, preference, seconds: float | None) -> int:
     """MuJoCo's passive viewer on env 0 in real time until closed (or ``seconds`` of simulation); returns steps."""
     import mujoco
-    import mujoco.viewer
     import torch
 
     from pchc_rsl.envs.g1_render import add_push_arrow, visual_model
+    from pchc_rsl.passive_viewer import passive_viewer
 
     model = visual_model(env)
     data = mujoco.MjData(model)
     controls = LiveControls(env)
-    before = set(threading.enumerate())
-    handle = mujoco.viewer.launch_passive(model, data, key_callback=controls.on_key, show_left_ui=False,
-                                          show_right_ui=False)
-    viewer_threads = [thread for thread in threading.enumerate() if thread not in before]
     steps, falls = 0, 0
-    try:
+    with passive_viewer(model, data, key_callback=controls.on_key, show_left_ui=False,
+                        show_right_ui=False) as handle:
         with handle.lock():
             handle.cam.type = mujoco.mjtCamera.mjCAMERA_TRACKING
             handle.cam.trackbodyid = model.body("pelvis").id
@@ -411,12 +407,6 @@ def run_viewer(env, policy, preference, seconds: float | None) -> int:
                 ])
                 handle.sync()
                 time.sleep(max(0.0, env.dt - (time.perf_counter() - start)))
-    finally:
-        handle.close()
-        # close() only asks the viewer's (daemon) thread to stop; exiting before its render loop has finished lets
-        # GLFW terminate under a frame still being swapped (GLXBadDrawable, a segfault at exit under Xvfb)
-        for thread in viewer_threads:
-            thread.join(timeout=10.0)
     return steps
 
 

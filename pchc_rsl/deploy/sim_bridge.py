@@ -3,6 +3,7 @@ pchc-deploy runs unchanged against it before it runs against a G1 (sim-to-sim)."
 
 from __future__ import annotations
 
+import contextlib
 import json
 import threading
 import time
@@ -10,6 +11,7 @@ import time
 from pchc_rsl.deploy.fixed_rate import FixedRateLoop
 from pchc_rsl.deploy.robot_io import Remote
 from pchc_rsl.deploy.simulator import G1Simulator
+from pchc_rsl.passive_viewer import passive_viewer
 
 G1_MODE_MACHINE = 5
 """What a 29-DoF G1 reports as mode_machine (a deploy must echo it in LowCmd or the robot ignores the command)."""
@@ -33,13 +35,9 @@ class SimBridge:
             self.sim.apply(cmd)
 
     def run(self, seconds: float | None = None) -> None:
-        viewer = None
-        if self.viewer:
-            import mujoco.viewer
-
-            viewer = mujoco.viewer.launch_passive(self.sim.model, self.sim.data)
         end = None if seconds is None else time.monotonic() + seconds
-        try:
+        opened = passive_viewer(self.sim.model, self.sim.data) if self.viewer else contextlib.nullcontext()
+        with opened as viewer:
             while not self.stop.is_set() and (end is None or time.monotonic() < end):
                 with self._lock:
                     self.sim.step()
@@ -49,9 +47,6 @@ class SimBridge:
                 if viewer is not None and self.sim.steps % 17 == 0:  # about 30 frames per second
                     viewer.sync()
                 self.loop.wait()
-        finally:
-            if viewer is not None:
-                viewer.close()
 
     def report(self) -> dict:
         return {"fell": bool(self.sim.fell), "base_distance": round(self.sim.driven_distance(), 4),
