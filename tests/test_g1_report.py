@@ -105,6 +105,32 @@ def test_claim_d_puts_each_fixed_walker_beside_pchc_at_its_preference(tmp_path):
     assert "| f10/model_9.pt (fixed) | (1.00, 0.00) | n/a | 0.35 | 0.25 | 2.00 | 256 |" in text
 
 
+def test_claim_d_for_fall_recovery_judges_dominance_on_energy_and_com(tmp_path):
+    pchc = [{"energy_overall": e, "mild/com_displacement": c, "mild/success": 99.0, "strong/success": 98.0}
+            for e, c in zip([230.0, 240.0, 250.0, 260.0, 316.0], [1.45, 1.42, 1.40, 1.38, 1.35])]
+    rows = [{"preference": list(lam), "episodes": 256, "metrics": m} for lam, m in zip(PREFERENCES, pchc)]
+    fixed_10 = {"energy_overall": 250.0, "mild/com_displacement": 1.50, "mild/success": 97.0, "strong/success": 90.0}
+    fixed_01 = {"energy_overall": 300.0, "mild/com_displacement": 1.20, "mild/success": 100.0, "strong/success": 99.0}
+    folder = tmp_path / "claim_d_fall"
+    folder.mkdir()
+    (folder / "results.json").write_text(json.dumps({"table": "t", "seed": 0, "switching": None, "results": [
+        {"name": "a/avg.pt", "checkpoint": "/gone/a.pt", "rows": rows},
+        {"name": "f10/avg.pt", "checkpoint": "/gone/f10.pt",
+         "rows": [{"preference": [1.0, 0.0], "episodes": 256, "metrics": fixed_10}]},
+        {"name": "f01/avg.pt", "checkpoint": "/gone/f01.pt",
+         "rows": [{"preference": [0.0, 1.0], "episodes": 256, "metrics": fixed_01}]}]}))
+    text = open(g1_report.main(["--claim-d-fall", str(folder), "--docs", str(tmp_path / "docs")])).read()
+    assert "## Claim (d): one PCHC fall-recovery policy against fixed-preference policies, same budget each" in text
+    # less energy and less COM displacement than the fixed (1, 0) policy: PCHC dominates it
+    assert ("- At (1.00, 0.00): energy -20.0 J/s, COM displacement -0.050 m, mild success +2.0 points, "
+            "strong success +8.0 points (PCHC minus fixed); PCHC dominates the fixed policy.") in text
+    # the fixed (0, 1) policy spends less and is carried less far: it dominates
+    assert ("- At (0.00, 1.00): energy +16.0 J/s, COM displacement +0.150 m, mild success -1.0 points, "
+            "strong success -1.0 points (PCHC minus fixed); the fixed policy dominates PCHC.") in text
+    assert "| f10/avg.pt (fixed) | (1.00, 0.00) | n/a | 250.0 | 1.50 |" in text
+    assert "Claim (d): one PCHC walker" not in text
+
+
 def test_training_line_says_where_the_evaluated_checkpoint_sits_on_longer_runs(tmp_path):
     import torch
     from test_plot_training import fake_run

@@ -11,7 +11,8 @@ checked on the figures, not asserted: the report says which hold and by how much
 above the marker line of an existing g1.md is kept; below it, the sections (and training curves) whose inputs are
 given are rewritten and the others kept, and a section made from more episodes per preference is only replaced
 with --force. --claim-d takes a pchc-eval folder of a PCHC walker (first checkpoint) and fixed-preference walkers
-(pchc-train --fixed-preference) and puts each fixed one beside PCHC at its preference.
+(pchc-train --fixed-preference) and puts each fixed one beside PCHC at its preference; --claim-d-fall does the same
+for fall-recovery policies.
 """
 
 from __future__ import annotations
@@ -22,8 +23,9 @@ import math
 import os
 import shutil
 import sys
+from dataclasses import dataclass
 
-from pchc_rsl.evaluation import format_metric
+from pchc_rsl.evaluation import FALL_RECOVERY_EVALUATION, WALK_EVALUATION, TaskEvaluation, format_metric, front_points
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
@@ -217,15 +219,48 @@ def dominates(a, b) -> bool:
     return bool((a >= b).all() and (a > b).any())
 
 
-def claim_d_section(results: dict) -> list[str]:
-    """Claim (d): the PCHC policy (first checkpoint) at each fixed-preference policy's preference, beside it."""
-    from pchc_rsl.evaluation import WALK_EVALUATION, front_points
+@dataclass(frozen=True)
+class ClaimD:
+    """One task's claim (d) section: its title, what its policies are called, the columns put side by side and the
+    differences (PCHC minus fixed) the verdict line gives, each as (label, metric key, format)."""
 
+    title: str
+    policy: str
+    policies: str
+    plot: str
+    evaluation: TaskEvaluation
+    columns: tuple[tuple[str, str, int], ...]
+    differences: tuple[tuple[str, str, str], ...]
+
+
+CLAIM_D = {
+    "walk": ClaimD("Claim (d): one PCHC walker against fixed-preference walkers, same budget each", "walker",
+                   "walkers", "g1_claim_d_pareto.png", WALK_EVALUATION,
+                   (("stride_length", "Avg. stride (m)", 2), ("push_deviation", "Traj. deviation (m)", 2),
+                    ("fall_rate", "Falls (%)", 2)),
+                   (("stride", "stride_length", "{:+.3f} m"), ("deviation", "push_deviation", "{:+.3f} m"),
+                    ("falls", "fall_rate", "{:+.1f} points"))),
+    "fall": ClaimD("Claim (d): one PCHC fall-recovery policy against fixed-preference policies, same budget each",
+                   "fall-recovery policy", "fall-recovery policies", "g1_fall_claim_d_pareto.png",
+                   FALL_RECOVERY_EVALUATION,
+                   (("energy_overall", "Energy overall (J/s)", 1), ("mild/com_displacement", "COM displ., mild (m)", 2),
+                    ("mild/success", "Success, mild (%)", 2), ("strong/success", "Success, strong (%)", 2)),
+                   (("energy", "energy_overall", "{:+.1f} J/s"), ("COM displacement", "mild/com_displacement",
+                                                                  "{:+.3f} m"),
+                    ("mild success", "mild/success", "{:+.1f} points"),
+                    ("strong success", "strong/success", "{:+.1f} points"))),
+}
+
+
+def claim_d_section(results: dict, claim: ClaimD) -> list[str]:
+    """Claim (d): the PCHC policy (first checkpoint) at each fixed-preference policy's preference, beside it; the
+    verdict is Pareto dominance on the task's two front objectives."""
     pchc, *fixed = results["results"]
     pchc_rows = rows_by_preference(pchc)
     pchc_steps = env_steps(pchc["checkpoint"])
-    lines = ["| Policy | Preference | Env steps | Avg. stride (m) | Traj. deviation (m) | Falls (%) | Episodes |",
-             "|---|---|---|---|---|---|---|"]
+    titles = [title for _, title, _ in claim.columns]
+    lines = ["| Policy | Preference | Env steps | " + " | ".join(titles) + " | Episodes |",
+             "|---|---|---|" + "---|" * len(titles) + "---|"]
     verdicts = []
     for result in fixed:
         (lam, row), = rows_by_preference(result).items()
@@ -234,16 +269,15 @@ def claim_d_section(results: dict) -> list[str]:
         ours_row = pchc_rows[lam]
         for name, steps, r in ((pchc["name"] + " (PCHC)", pchc_steps, ours_row),
                                (result["name"] + " (fixed)", env_steps(result["checkpoint"]), row)):
+            cells = " | ".join(cell(r, key, digits) for key, _, digits in claim.columns)
             lines.append(f"| {name} | {preference_label(lam)} | {'n/a' if steps is None else f'{steps:,}'} | "
-                         f"{cell(r, 'stride_length')} | {cell(r, 'push_deviation')} | {cell(r, 'fall_rate')} | "
-                         f"{r['episodes']} |")
-        ours, theirs = front_points([ours_row, row], WALK_EVALUATION)
+                         f"{cells} | {r['episodes']} |")
+        ours, theirs = front_points([ours_row, row], claim.evaluation)
         relation = ("the fixed policy dominates PCHC" if dominates(theirs, ours) else
                     "PCHC dominates the fixed policy" if dominates(ours, theirs) else "neither dominates")
-        stride, deviation, falls = (value(ours_row, key) - value(row, key)
-                                    for key in ("stride_length", "push_deviation", "fall_rate"))
-        verdicts.append(f"- At {preference_label(lam)}: stride {stride:+.3f} m, deviation {deviation:+.3f} m, "
-                        f"falls {falls:+.1f} points (PCHC minus fixed); {relation}.")
+        differences = ", ".join(f"{label} " + form.format(value(ours_row, key) - value(row, key))
+                                for label, key, form in claim.differences)
+        verdicts.append(f"- At {preference_label(lam)}: {differences} (PCHC minus fixed); {relation}.")
     return lines + [""] + verdicts
 
 
@@ -291,12 +325,13 @@ def main(argv: list[str] | None = None) -> str:
                         help="the fall-recovery run's folders joined by '+' (folder@N: its iterations up to N)")
     parser.add_argument("--claim-d", help="pchc-eval output folder of a PCHC walker (first) and fixed-preference "
                         "walkers trained for as many env steps")
+    parser.add_argument("--claim-d-fall", help="the same for a PCHC fall-recovery policy and fixed-preference ones")
     parser.add_argument("--docs", default="docs/results")
     parser.add_argument("--force", action="store_true",
                         help="replace a section made from more episodes per preference than the new results have")
     args = parser.parse_args(argv)
-    if not (args.walk or args.fall or args.claim_d):
-        raise SystemExit("g1_report: give --walk, --fall and/or --claim-d (pchc-eval output folders).")
+    if not (args.walk or args.fall or args.claim_d or args.claim_d_fall):
+        raise SystemExit("g1_report: give --walk, --fall, --claim-d and/or --claim-d-fall (pchc-eval output folders).")
     os.makedirs(args.docs, exist_ok=True)
     path = os.path.join(args.docs, "g1.md")
     previous = generated_sections(path)  # a section (or its training curves) whose inputs are not given is kept
@@ -333,19 +368,21 @@ def main(argv: list[str] | None = None) -> str:
                     f"![Training curves]({curves})", ""]
         elif subsection(previous.get(title, ""), "Training"):
             out += [subsection(previous[title], "Training"), ""]
-    claim_title = "Claim (d): one PCHC walker against fixed-preference walkers, same budget each"
-    if not args.claim_d and claim_title in previous:
-        out += [f"## {claim_title}", "", previous[claim_title], ""]
-    if args.claim_d:
-        results = load_results(args.claim_d)
-        out += ["## Claim (d): one PCHC walker against fixed-preference walkers, same budget each", "",
+    for key, folder in (("walk", args.claim_d), ("fall", args.claim_d_fall)):
+        claim = CLAIM_D[key]
+        if not folder:
+            if claim.title in previous:
+                out += [f"## {claim.title}", "", previous[claim.title], ""]
+            continue
+        results = load_results(folder)
+        out += [f"## {claim.title}", "",
                 "The paper (Sec. V, 'Compared with fixed preference'): PCHC performs comparably to policies trained "
-                "at one fixed lambda. Each fixed-preference walker is evaluated at its own preference; the PCHC "
-                f"walker at every preference (seed {results['seed']}, same evaluation as above).", "",
-                *claim_d_section(results), ""]
-        name = copy_plot(args.claim_d, "pareto.png", args.docs, "g1_claim_d_pareto.png")
+                f"at one fixed lambda. Each fixed-preference {claim.policy} is evaluated at its own preference; "
+                f"the PCHC {claim.policy} at every preference (seed {results['seed']}, same evaluation as above).",
+                "", *claim_d_section(results, claim), ""]
+        name = copy_plot(folder, "pareto.png", args.docs, claim.plot)
         if name:
-            out += [f"![PCHC and fixed-preference walkers]({name})", ""]
+            out += [f"![PCHC and fixed-preference {claim.policies}]({name})", ""]
     with open(path, "w") as f:
         f.write("\n".join(out).rstrip() + "\n")
     print(f"g1_report: wrote {path}")
