@@ -255,3 +255,21 @@ def test_a_preference_of_the_wrong_length_names_the_objectives(toy_checkpoint, t
     with pytest.raises(SystemExit) as error:
         play.main([toy_checkpoint, "--video", str(tmp_path / "t.gif"), "--preference", "0.2,0.3,0.5"])
     assert "2 objectives (goal_a, goal_b)" in str(error.value)
+
+
+def test_a_fixed_preference_checkpoint_is_shown_at_its_preference(tmp_path, monkeypatch):
+    """Played at the default three lambdas, a policy trained at one falls over at the other two (stop 44: the fixed
+    (1, 0) fall-recovery policy at (0.5, 0.5)); without --preference it is shown at the one it was trained at."""
+    from pchc_rsl.cli import train
+
+    train.main(["--task", "toy", "--num-envs", "8", "--max-iterations", "1", "--fixed-preference", "0.2,0.8",
+                "--log-dir", str(tmp_path / "fixed")])
+    checkpoint = str(tmp_path / "fixed" / "model_0.pt")
+    shown = []
+    monkeypatch.setattr(play, "record_checkpoint_video", lambda path, preferences, *rest: shown.append(preferences))
+    monkeypatch.setattr(play, "watch_in_browser", lambda path, preference, args: shown.append(preference))
+    play.main([checkpoint, "--video", str(tmp_path / "t.gif")])
+    play.main([checkpoint, "--viewer", "web"])
+    play.main([checkpoint, "--video", str(tmp_path / "t.gif"), "--preference", "1,0"])  # asked for: shown
+    assert len(shown) == 3 and shown[2] == [(1.0, 0.0)]
+    assert len(shown[0]) == 1 and shown[0][0] == pytest.approx((0.2, 0.8)) and shown[1] == pytest.approx((0.2, 0.8))

@@ -33,7 +33,8 @@ def build_parser() -> argparse.ArgumentParser:
                         help="config overrides after the evaluation preset, as on pchc-eval (e.g. "
                         "env.action_delay_s=0.02,0.02 to watch the policy with 20 ms of latency)")
     parser.add_argument("--preference", action="append", metavar="L1,L2",
-                        help="a preference to show, repeatable (video default: 1,0 0.5,0.5 0,1; viewer: 0.5,0.5)")
+                        help="a preference to show, repeatable (video default: 1,0 0.5,0.5 0,1; viewer: 0.5,0.5; "
+                        "a checkpoint trained with --fixed-preference: that one)")
     parser.add_argument("--seconds", type=float,
                         help="length (video default: the task's episode length; viewer default: until closed)")
     parser.add_argument("--video", metavar="FILE", help="write FILE.mp4 or FILE.gif instead of opening the viewer")
@@ -61,7 +62,7 @@ def has_display() -> bool:
 def main(argv: list[str] | None = None) -> None:
     args = build_parser().parse_intermixed_args(argv)  # KEY=VALUE words may follow the options
     try:
-        preferences = parse_preferences(args.preference, VIDEO_PREFERENCES if args.video else [VIEWER_PREFERENCE])
+        preferences = parse_preferences(args.preference, default_preferences(args.checkpoint, args.video))
         check_arguments(args)
     except ValueError as error:
         raise SystemExit(f"pchc-play: {error}") from None
@@ -88,6 +89,21 @@ def main(argv: list[str] | None = None) -> None:
         if args.verbose:
             raise
         raise SystemExit(f"pchc-play: {error}") from None
+
+
+def default_preferences(checkpoint: str, video: str | None) -> list[tuple[float, ...]]:
+    """What to show without --preference: the one preference a checkpoint trained with --fixed-preference saw (other
+    lambdas mean nothing to it, as pchc-eval also says), else the video's three or the viewer's one. A file that
+    cannot be read gets the usual defaults here and its error where the policy is loaded."""
+    from pchc_rsl.runners import load_checkpoint
+
+    try:
+        fixed = (load_checkpoint(checkpoint).get("config") or {}).get("fixed_preference")
+    except (FileNotFoundError, ValueError):
+        fixed = None
+    if fixed is not None:
+        return [tuple(float(x) for x in fixed)]
+    return VIDEO_PREFERENCES if video else [VIEWER_PREFERENCE]
 
 
 def parse_preferences(texts: list[str] | None, default: list[tuple[float, ...]]) -> list[tuple[float, ...]]:
