@@ -258,7 +258,7 @@ def test_a_preference_of_the_wrong_length_names_the_objectives(toy_checkpoint, t
 
 
 def test_a_fixed_preference_checkpoint_is_shown_at_its_preference(tmp_path, monkeypatch):
-    """Played at the default three lambdas, a policy trained at one falls over at the other two (stop 44: the fixed
+    """Played at the default three lambdas, a policy trained at one falls over at the other two (stop 43: the fixed
     (1, 0) fall-recovery policy at (0.5, 0.5)); without --preference it is shown at the one it was trained at."""
     from pchc_rsl.cli import train
 
