@@ -18,6 +18,20 @@ def write_results(folder, metrics_by_preference, episodes=256, switching=None):
     return str(folder)
 
 
+def write_claim_d(folder, pchc_metrics, fixed_10, fixed_01, file):
+    """A pchc-eval results.json of a PCHC policy (run a/, every preference) and fixed-preference policies at (1, 0)
+    (run f10/) and (0, 1) (run f01/), their checkpoints gone."""
+    rows = [{"preference": list(lam), "episodes": 256, "metrics": m} for lam, m in zip(PREFERENCES, pchc_metrics)]
+    folder.mkdir()
+    (folder / "results.json").write_text(json.dumps({"table": "t", "seed": 0, "switching": None, "results": [
+        {"name": f"a/{file}", "checkpoint": "/gone/a.pt", "rows": rows},
+        {"name": f"f10/{file}", "checkpoint": "/gone/f10.pt",
+         "rows": [{"preference": [1.0, 0.0], "episodes": 256, "metrics": fixed_10}]},
+        {"name": f"f01/{file}", "checkpoint": "/gone/f01.pt",
+         "rows": [{"preference": [0.0, 1.0], "episodes": 256, "metrics": fixed_01}]}]}))
+    return str(folder)
+
+
 def statuses(path):
     text = open(path).read()
     targets = [line for line in text.splitlines() if "| met |" in line or "| **not met** |" in line]
@@ -86,18 +100,10 @@ def test_hand_written_text_above_the_marker_is_kept(tmp_path):
 def test_claim_d_puts_each_fixed_walker_beside_pchc_at_its_preference(tmp_path):
     pchc = [{"stride_length": s, "push_deviation": d, "fall_rate": 0.0}
             for s, d in zip([0.40, 0.45, 0.5, 0.55, 0.60], [0.20, 0.22, 0.25, 0.28, 0.30])]
-    rows = [{"preference": list(lam), "episodes": 256, "metrics": m} for lam, m in zip(PREFERENCES, pchc)]
     fixed_10 = {"stride_length": 0.35, "push_deviation": 0.25, "fall_rate": 2.0}  # shorter and less stable
     fixed_01 = {"stride_length": 0.70, "push_deviation": 0.30, "fall_rate": 1.0}  # longer, as stable
-    folder = tmp_path / "claim_d"
-    folder.mkdir()
-    (folder / "results.json").write_text(json.dumps({"table": "t", "seed": 0, "switching": None, "results": [
-        {"name": "a/model_9.pt", "checkpoint": "/gone/a.pt", "rows": rows},
-        {"name": "f10/model_9.pt", "checkpoint": "/gone/f10.pt",
-         "rows": [{"preference": [1.0, 0.0], "episodes": 256, "metrics": fixed_10}]},
-        {"name": "f01/model_9.pt", "checkpoint": "/gone/f01.pt",
-         "rows": [{"preference": [0.0, 1.0], "episodes": 256, "metrics": fixed_01}]}]}))
-    text = open(g1_report.main(["--claim-d", str(folder), "--docs", str(tmp_path / "docs")])).read()
+    folder = write_claim_d(tmp_path / "claim_d", pchc, fixed_10, fixed_01, "model_9.pt")
+    text = open(g1_report.main(["--claim-d", folder, "--docs", str(tmp_path / "docs")])).read()
     assert ("- At (1.00, 0.00): stride +0.050 m, deviation -0.050 m, falls -2.0 points (PCHC minus fixed); "
             "PCHC dominates the fixed policy.") in text
     assert ("- At (0.00, 1.00): stride -0.100 m, deviation +0.000 m, falls -1.0 points (PCHC minus fixed); "
@@ -108,18 +114,10 @@ def test_claim_d_puts_each_fixed_walker_beside_pchc_at_its_preference(tmp_path):
 def test_claim_d_for_fall_recovery_judges_dominance_on_energy_and_com(tmp_path):
     pchc = [{"energy_overall": e, "mild/com_displacement": c, "mild/success": 99.0, "strong/success": 98.0}
             for e, c in zip([230.0, 240.0, 250.0, 260.0, 316.0], [1.45, 1.42, 1.40, 1.38, 1.35])]
-    rows = [{"preference": list(lam), "episodes": 256, "metrics": m} for lam, m in zip(PREFERENCES, pchc)]
     fixed_10 = {"energy_overall": 250.0, "mild/com_displacement": 1.50, "mild/success": 97.0, "strong/success": 90.0}
     fixed_01 = {"energy_overall": 300.0, "mild/com_displacement": 1.20, "mild/success": 100.0, "strong/success": 99.0}
-    folder = tmp_path / "claim_d_fall"
-    folder.mkdir()
-    (folder / "results.json").write_text(json.dumps({"table": "t", "seed": 0, "switching": None, "results": [
-        {"name": "a/avg.pt", "checkpoint": "/gone/a.pt", "rows": rows},
-        {"name": "f10/avg.pt", "checkpoint": "/gone/f10.pt",
-         "rows": [{"preference": [1.0, 0.0], "episodes": 256, "metrics": fixed_10}]},
-        {"name": "f01/avg.pt", "checkpoint": "/gone/f01.pt",
-         "rows": [{"preference": [0.0, 1.0], "episodes": 256, "metrics": fixed_01}]}]}))
-    text = open(g1_report.main(["--claim-d-fall", str(folder), "--docs", str(tmp_path / "docs")])).read()
+    folder = write_claim_d(tmp_path / "claim_d_fall", pchc, fixed_10, fixed_01, "avg.pt")
+    text = open(g1_report.main(["--claim-d-fall", folder, "--docs", str(tmp_path / "docs")])).read()
     assert "## Claim (d): one PCHC fall-recovery policy against fixed-preference policies, same budget each" in text
     # less energy and less COM displacement than the fixed (1, 0) policy: PCHC dominates it
     assert ("- At (1.00, 0.00): energy -20.0 J/s, COM displacement -0.050 m, mild success +2.0 points, "

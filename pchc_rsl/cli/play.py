@@ -92,17 +92,18 @@ def main(argv: list[str] | None = None) -> None:
 
 
 def default_preferences(checkpoint: str, video: str | None) -> list[tuple[float, ...]]:
-    """What to show without --preference: the one preference a checkpoint trained with --fixed-preference saw (other
-    lambdas mean nothing to it, as pchc-eval also says), else the video's three or the viewer's one. A file that
-    cannot be read gets the usual defaults here and its error where the policy is loaded."""
+    """What to show without --preference: the one preference a checkpoint trained with --fixed-preference saw, else
+    the video's three or the viewer's one. A file that cannot be read gets the usual defaults here and its error
+    where the policy is loaded."""
+    from pchc_rsl.evaluation import trained_preference
     from pchc_rsl.runners import load_checkpoint
 
     try:
-        fixed = (load_checkpoint(checkpoint).get("config") or {}).get("fixed_preference")
+        fixed = trained_preference(load_checkpoint(checkpoint).get("config") or {})
     except (FileNotFoundError, ValueError):
         fixed = None
     if fixed is not None:
-        return [tuple(float(x) for x in fixed)]
+        return [fixed]
     return VIDEO_PREFERENCES if video else [VIEWER_PREFERENCE]
 
 

@@ -6,7 +6,8 @@ specifics (which metrics form the front, the table columns, the evaluation prese
 (pchc-eval, pchc-play) and the tools only parse their arguments and call these.
 """
 
-from pchc_rsl.evaluation.checkpoint import evaluate_checkpoint, evaluation_config, loaded_policy, task_config_of
+from pchc_rsl.evaluation.checkpoint import (evaluate_checkpoint, evaluation_config, loaded_policy, task_config_of,
+                                            trained_preference)
 from pchc_rsl.evaluation.presets import (
     FALL_RECOVERY_EVALUATION,
     TASK_EVALUATION,
@@ -26,5 +27,5 @@ __all__ = [
     "WALK_EVALUATION", "aggregate", "default_conditions", "evaluate_checkpoint", "evaluation_config",
     "evaluation_preset", "evenly_spaced_preferences", "format_metric", "front_points", "front_summary",
     "loaded_policy", "markdown_table", "run_episodes", "run_return_episodes", "run_robustness", "settle_time",
-    "switching_run", "task_config_of", "wilson_interval", "write_outputs", "write_robustness",
+    "switching_run", "task_config_of", "trained_preference", "wilson_interval", "write_outputs", "write_robustness",
 ]

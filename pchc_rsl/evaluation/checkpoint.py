@@ -46,6 +46,13 @@ def task_config_of(path: str, task_prefix: str, tool: str, what: str) -> dict:
     return config
 
 
+def trained_preference(config: dict) -> tuple[float, ...] | None:
+    """The one preference a checkpoint trained with --fixed-preference saw (other lambdas mean nothing to such a
+    policy: pchc-eval and pchc-play show it there only); None for a preference-conditioned policy."""
+    fixed = config.get("fixed_preference")
+    return None if fixed is None else tuple(float(x) for x in fixed)
+
+
 def evaluate_checkpoint(path: str, config: dict, preferences, num_envs: int = 64, episodes: int = 2, seed: int = 0,
                         episode_length: float | None = None, switch: bool = False, overrides: list[str] = (),
                         verbose: bool = False, device: str = "cpu", presets: list[str] | None = None):
@@ -56,9 +63,9 @@ def evaluate_checkpoint(path: str, config: dict, preferences, num_envs: int = 64
     task = config["task"]
     evaluation = TASK_EVALUATION[task]
     name = os.path.basename(os.path.dirname(os.path.abspath(path))) + "/" + os.path.basename(path)
-    fixed = config.get("fixed_preference")
-    if fixed is not None:  # other lambdas mean nothing to a policy that only ever saw this one
-        preferences = [tuple(float(x) for x in fixed)]
+    fixed = trained_preference(config)
+    if fixed is not None:
+        preferences = [fixed]
     metrics = {p: {} for p in preferences}
     counts = {p: 0 for p in preferences}
     curve_prefs = {preferences[0], preferences[len(preferences) // 2], preferences[-1]}
