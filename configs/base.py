@@ -50,6 +50,19 @@ class AMPConfig:
 
 
 @dataclass
+class SymmetryConfig:
+    """rsl-rl's symmetry extension (rsl_rl.extensions.Symmetry, Mittal et al. 2024): mirrored samples added to every
+    mini-batch and/or a loss on the policy disagreeing with its own mirror."""
+
+    data_augmentation_func: str
+    """``"module:function"`` (env, obs, actions) -> the batch followed by its mirror, e.g.
+    ``"pchc_rsl.envs.g1_symmetry:augment_with_mirror"``."""
+    use_data_augmentation: bool = True
+    use_mirror_loss: bool = False
+    mirror_loss_coeff: float = 0.0
+
+
+@dataclass
 class AlgorithmConfig:
     class_name: str = "pchc_rsl.algorithms:MultiCriticPPO"
     num_learning_epochs: int = 5
@@ -71,6 +84,7 @@ class AlgorithmConfig:
     task_advantage_weight: float = 1.0
     """w_task in A = w_task A_task + sum_i lambda_i A_obj_i (1 in the paper)."""
     amp_cfg: AMPConfig | None = None
+    symmetry_cfg: SymmetryConfig | None = None
 
 
 @dataclass

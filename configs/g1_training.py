@@ -8,11 +8,14 @@ third as much, and the reward rises faster per hour and no slower per env step. 
 
 from __future__ import annotations
 
-from pchc_rsl.configs.base import AMPConfig, AlgorithmConfig, RunnerConfig, TaskConfig, default_actor, default_critic
+from pchc_rsl.configs.base import (AMPConfig, AlgorithmConfig, RunnerConfig, SymmetryConfig, TaskConfig, default_actor,
+                                  default_critic)
 
 
-def g1_task_config(name: str, env_class: str, env, experiment_name: str) -> TaskConfig:
-    """A TaskConfig for a G1 env config: PCI actor over its history frames, AMP over its actuated joints."""
+def g1_task_config(name: str, env_class: str, env, experiment_name: str, symmetry: bool = False) -> TaskConfig:
+    """A TaskConfig for a G1 env config: PCI actor over its history frames, AMP over its actuated joints; with
+    ``symmetry``, rsl-rl's symmetry extension on the G1's left-right mirror (mirrored samples in every mini-batch
+    and the mirror loss)."""
     actor = default_actor()
     actor.hidden_dims = [128, 64]  # per expert
     actor.kwargs |= {"history_length": env.history_length}
@@ -33,6 +36,8 @@ def g1_task_config(name: str, env_class: str, env, experiment_name: str) -> Task
                 entropy_coef=0.01,  # mjlab's G1 velocity task and HoST
                 reward_group_names=["task", *env.objective_names],
                 amp_cfg=AMPConfig(joint_names=list(env.joints), window=env.amp_window),
+                symmetry_cfg=SymmetryConfig("pchc_rsl.envs.g1_symmetry:augment_with_mirror", use_data_augmentation=True,
+                                            use_mirror_loss=True, mirror_loss_coeff=1.0) if symmetry else None,
             ),
             actor=actor,
             critic=critic,

@@ -26,7 +26,9 @@ def walk_rewards() -> list[RewardTerm]:
     cheapest answer to a strong push at the disturbance end)."""
     return [
         RewardTerm(R + "track_lin_vel_xy", 2.0, params={"std": 0.5}),
-        RewardTerm(R + "track_ang_vel_z", 2.0, params={"std": 0.707}),
+        RewardTerm(R + "track_lin_vel_xy", 1.0, params={"std": 0.15}),
+        RewardTerm(R + "track_ang_vel_z", 1.5, params={"std": 0.5}),
+        RewardTerm(R + "track_ang_vel_z", 1.5, params={"std": 0.15}),
         RewardTerm(R + "flat_orientation", -5.0),
         RewardTerm(R + "base_height", -10.0, params={"target": 0.74}),
         RewardTerm(R + "feet_slip", -0.1),
@@ -39,7 +41,7 @@ def walk_rewards() -> list[RewardTerm]:
         RewardTerm(R + "action_rate", -0.01),
         RewardTerm(R + "alive", 1.0),
         RewardTerm(R + "disturbance", 1.0, group="disturbance", params={"fall_cost": 5.0}),
-        RewardTerm(R + "stride", 1.0, group="stride", params={"speed_std": 0.25}),
+        RewardTerm(R + "stride", 1.0, group="stride", params={"speed_std": 0.25, "along_command": True}),
     ]
 
 
@@ -54,8 +56,10 @@ def walk_env(fast: bool = False) -> G1EnvConfig:
         decimation=4 if fast else 10,
         use_command=True,
         action_scale_per_joint=True,  # mjlab's G1: 0.25 * effort / kp, 0.35-0.55 rad per unit action
-        command_ranges={"lin_vel_x": (0.0, 1.0), "lin_vel_y": (0.0, 0.0), "ang_vel_z": (0.0, 0.0)},
+        command_ranges={"lin_vel_x": (-0.5, 1.0), "lin_vel_y": (-0.5, 0.5), "ang_vel_z": (-1.0, 1.0)},
         zero_command_probability=0.15,  # standing still is a command too (the evaluation's 0 m/s)
+        zero_yaw_rate_probability=0.3,  # walking straight: holding a heading is trained, not only turning
+        command_resample_s=(4.0, 8.0),  # steered within an episode, as an operator does
         action_delay_s=(0.0, 0.02),  # a robot's 0-20 ms from sensing to actuation
         push=PushConfig(velocity=(0.3, 2.0)),  # spans the evaluation presets, mild to strong
         randomization=RandomizationConfig(added_base_mass=(-1.0, 5.0), actuator_strength=(0.8, 1.1)),
@@ -67,7 +71,7 @@ def walk_env(fast: bool = False) -> G1EnvConfig:
 
 def g1_walk_task(fast: bool = False) -> TaskConfig:
     env = walk_env(fast)
-    return g1_task_config("g1-walk-fast" if fast else "g1-walk", "pchc_rsl.envs.g1_env:G1Env", env, "g1_walk")
+    return g1_task_config("g1-walk-fast" if fast else "g1-walk", "pchc_rsl.envs.g1_env:G1Env", env, "g1_walk", symmetry=True)
 
 
 def g1_walk_fast_task() -> TaskConfig:

@@ -80,7 +80,12 @@ class G1EnvConfig:
         default_factory=lambda: {"lin_vel_x": (0.0, 0.0), "lin_vel_y": (0.0, 0.0), "ang_vel_z": (0.0, 0.0)}
     )
     zero_command_probability: float = 0.0
-    """Share of episodes whose command is zero (standing still), drawn at each reset on top of command_ranges."""
+    """Share of commands that are zero (standing still), drawn with each command on top of command_ranges."""
+    zero_yaw_rate_probability: float = 0.0
+    """Share of the other commands whose yaw rate is zero (walking straight)."""
+    command_resample_s: tuple[float, float] | None = None
+    """Draw a new command after a time uniform in this range (s), again and again within an episode, as a robot is
+    steered; None: one command per episode, drawn at the reset."""
     use_command: bool = False
     """Whether the policy observes the velocity command (walking)."""
     initial_joint_noise: float = 0.1

@@ -85,6 +85,7 @@ class G1Env(VecEnv):
         self._delay_range = self._substeps_of(cfg.action_delay_s)
         self.episode_length_buf = torch.zeros(n, dtype=torch.long, device=dev)
         self.commands = torch.zeros(n, 3, device=dev)
+        self.command_countdown = torch.zeros(n, dtype=torch.long, device=dev)
         self.preferences = EnvPreferences(n, self.num_objectives, cfg.preference_concentration, self.generator, dev)
         self.preference = self.preferences.values
         self.action_scale = torch.full((n, 1), cfg.action_scale, device=dev)
@@ -123,15 +124,9 @@ class G1Env(VecEnv):
         qpos, qvel = self.initial_state(ids)
         self.physics.set_qpos_qvel(ids, qpos, qvel)
         self.robot.read()
-        r, n = self.cfg.command_ranges, len(ids)
-        commands = torch.stack(
-            [self._uniform(n, *r["lin_vel_x"]), self._uniform(n, *r["lin_vel_y"]), self._uniform(n, *r["ang_vel_z"])],
-            1,
-        )
-        if self.cfg.zero_command_probability > 0:
-            standing = torch.rand(n, generator=self.generator, device=self.device) < self.cfg.zero_command_probability
-            commands = torch.where(standing.unsqueeze(-1), 0.0, commands)
-        self.commands[ids] = commands
+        n = len(ids)
+        self.commands[ids] = self.sample_commands(n)
+        self.command_countdown[ids] = self._command_interval(n)
         low, high = self._delay_range
         self.action_delay[ids] = torch.randint(low, high + 1, (n,), generator=self.generator, device=self.device)
         self.preferences.resample(ids)
@@ -144,6 +139,37 @@ class G1Env(VecEnv):
         self.episode_reward_sums[ids] = 0.0
         self.episode.reset(ids)
         self.observations.reset(self, ids)
+
+    def sample_commands(self, n: int) -> torch.Tensor:
+        """[n, 3] (v_x, v_y, w_z) uniform in the command ranges, zero (stand) with ``zero_command_probability``."""
+        r = self.cfg.command_ranges
+        commands = torch.stack(
+            [self._uniform(n, *r["lin_vel_x"]), self._uniform(n, *r["lin_vel_y"]), self._uniform(n, *r["ang_vel_z"])],
+            1,
+        )
+        if self.cfg.zero_yaw_rate_probability > 0:
+            straight = torch.rand(n, generator=self.generator, device=self.device) < self.cfg.zero_yaw_rate_probability
+            commands[:, 2] = torch.where(straight, 0.0, commands[:, 2])
+        if self.cfg.zero_command_probability > 0:
+            standing = torch.rand(n, generator=self.generator, device=self.device) < self.cfg.zero_command_probability
+            commands = torch.where(standing.unsqueeze(-1), 0.0, commands)
+        return commands
+
+    def _command_interval(self, n: int) -> torch.Tensor:
+        """[n] policy steps until the next command (a step count past the episode's end without resampling)."""
+        if self.cfg.command_resample_s is None:
+            return torch.full((n,), self.max_episode_length + 1, dtype=torch.long, device=self.device)
+        seconds = self._uniform(n, *self.cfg.command_resample_s)
+        return (seconds / self.dt).round().long().clamp(min=1)
+
+    def _resample_due_commands(self) -> None:
+        """Count down each env's command; where it ran out draw a new one (batched: no host sync)."""
+        if self.cfg.command_resample_s is None:
+            return
+        self.command_countdown -= 1
+        due = self.command_countdown <= 0
+        self.commands = torch.where(due.unsqueeze(-1), self.sample_commands(self.num_envs), self.commands)
+        self.command_countdown = torch.where(due, self._command_interval(self.num_envs), self.command_countdown)
 
     def _uniform(self, n: int, low: float, high: float) -> torch.Tensor:
         return low + (high - low) * torch.rand(n, generator=self.generator, device=self.device)
@@ -161,21 +187,26 @@ class G1Env(VecEnv):
         return qpos, torch.zeros(n, self.model.nv, device=self.device, dtype=torch.float64)
 
     # ---------------------------------------------------------------- observations
-    def privileged_state(self) -> torch.Tensor:
-        """The critic's extra state: base velocity and height, foot contacts, the push and the deviation from it (and
-        with ``critic_push_timing`` the push's timing)."""
+    def privileged_parts(self) -> list[tuple[str, torch.Tensor]]:
+        """The critic's extra state by quantity: base velocity and height, foot contacts, the push and the deviation
+        from it (and with ``critic_push_timing`` the push's timing). Names say how the left-right mirror acts on
+        each (envs/g1_symmetry.py)."""
         active = self.pushes.active.float().unsqueeze(-1)
         parts = [
-            self.robot.base_lin_vel,
-            self.robot.base_pos[:, 2:3],
-            self.feet.contact.float(),
-            active,
-            self.pushes.direction * active,
-            self.pushes.deviation(self.robot) * active,
+            ("base_lin_vel", self.robot.base_lin_vel),
+            ("base_height", self.robot.base_pos[:, 2:3]),
+            ("foot_contact", self.feet.contact.float()),
+            ("push_active", active),
+            ("push_direction_xy", self.pushes.direction * active),
+            ("push_deviation_xy", self.pushes.deviation(self.robot) * active),
         ]
         if self.cfg.critic_push_timing:
-            parts.append(self.pushes.timing())
-        return torch.cat(parts, dim=-1)
+            parts.append(("push_timing", self.pushes.timing()))
+        return parts
+
+    def privileged_state(self) -> torch.Tensor:
+        """[N, P] the privileged parts, concatenated."""
+        return torch.cat([value for _, value in self.privileged_parts()], dim=-1)
 
     def get_observations(self) -> TensorDict:
         return self.observations.groups(self, self.privileged_state())
@@ -216,6 +247,7 @@ class G1Env(VecEnv):
             resample = (torch.rand(self.num_envs, generator=self.generator, device=self.device)
                         < self.cfg.preference_resample_prob)
             self.preferences.resample_where(resample)
+        self._resample_due_commands()
         self.observations.push(self, amp=False)
         extras = {"time_outs": time_outs, "reward_groups": reward_groups, "log": log, "episode_metrics": finished,
                   "amp_observations": amp_before_reset}
@@ -333,10 +365,7 @@ class G1Env(VecEnv):
         deploy reads nothing from the training config): joints in the policy's order with their PD gains, effort
         limits, default pose and action scale, the observation layout and the control period."""
         model = self.model
-        frame = [["base_ang_vel", 3], ["projected_gravity", 3], ["joint_pos_minus_default", self.num_actions],
-                 ["joint_vel", self.num_actions], ["last_action", self.num_actions], ["action_scale_eta", 1]]
-        if self.cfg.use_command:
-            frame.append(["velocity_command", 3])
+        frame = [[name, size] for name, size in self.observations.frame_layout]
         return {
             "format": 1,
             "joint_names": list(self.cfg.joints),

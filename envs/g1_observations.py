@@ -10,6 +10,15 @@ NOISE_SCALES = {"ang_vel": 0.2, "gravity": 0.05, "joint_pos": 0.01, "joint_vel":
 """Half-widths of the uniform observation noise per quantity, multiplied by ``observation_noise``."""
 
 
+def frame_layout(num_joints: int, use_command: bool) -> list[tuple[str, int]]:
+    """The quantities of one frame in order, with their sizes (the deploy metadata and the mirror read it)."""
+    layout = [("base_ang_vel", 3), ("projected_gravity", 3), ("joint_pos_minus_default", num_joints),
+              ("joint_vel", num_joints), ("last_action", num_joints), ("action_scale_eta", 1)]
+    if use_command:
+        layout.append(("velocity_command", 3))
+    return layout
+
+
 class ObservationBuffers:
     """Frame histories, newest first: s_t = [angular velocity, gravity in base frame, q - q_default, dq, a_{t-1},
     eta (, command)]; the AMP window holds the actuated joint positions, oldest first."""
@@ -17,7 +26,8 @@ class ObservationBuffers:
     def __init__(self, num_envs: int, num_joints: int, history_length: int, amp_window: int, use_command: bool,
                  noise: float, generator: torch.Generator) -> None:
         self.use_command, self.noise, self.generator = use_command, noise, generator
-        frame_dim = 3 + 3 + 3 * num_joints + 1 + (3 if use_command else 0)
+        self.frame_layout = frame_layout(num_joints, use_command)
+        frame_dim = sum(size for _, size in self.frame_layout)
         device = generator.device
         self.policy = torch.zeros(num_envs, history_length + 1, frame_dim, device=device)
         self.critic = torch.zeros(num_envs, history_length + 1, frame_dim, device=device)

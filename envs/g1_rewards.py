@@ -29,19 +29,25 @@ def base_height(env, target: float) -> torch.Tensor:
     return (env.robot.base_pos[:, 2] - target) ** 2
 
 
+def commanded_to_move(env, min_command: float = 0.1) -> torch.Tensor:
+    """[N] bool: a speed of at least ``min_command`` (m/s) or a yaw rate of at least as much (rad/s) is commanded;
+    turning on the spot takes steps too."""
+    return (env.commands[:, :2].norm(dim=-1) >= min_command) | (env.commands[:, 2].abs() >= min_command)
+
+
 def feet_air_time(env, threshold: float, max_air: float | None = None) -> torch.Tensor:
-    """Sum over touchdowns of (air time - threshold), only while a velocity is commanded (legged_gym's term).
+    """Sum over touchdowns of (air time - threshold), only while the robot is told to move (legged_gym's term).
     ``max_air`` caps the air time counted, so swings longer than it earn no more (hops and held-up feet)."""
-    moving = env.commands[:, :2].norm(dim=-1) > 0.1
+    moving = commanded_to_move(env)
     air = env.feet.last_air_time if max_air is None else env.feet.last_air_time.clamp(max=max_air)
     return ((air - threshold) * env.feet.first_contact).sum(-1) * moving
 
 
 def single_stance(env, min_command: float = 0.1) -> torch.Tensor:
-    """1 while exactly one foot is on the ground and a speed of at least ``min_command`` is commanded (legged_gym's
-    biped no-fly term): pays walking, in which the feet take turns, and neither hopping (both feet leave the
-    ground together, as the shipped walker did) nor shuffling in double support."""
-    moving = env.commands[:, :2].norm(dim=-1) >= min_command
+    """1 while exactly one foot is on the ground and the robot is told to move (``commanded_to_move``; legged_gym's
+    biped no-fly term): pays walking, in which the feet take turns, and neither hopping (both feet leave the ground
+    together) nor shuffling in double support."""
+    moving = commanded_to_move(env, min_command)
     return (env.feet.contact.sum(-1) == 1).float() * moving
 
 
@@ -102,7 +108,8 @@ def alive(env) -> torch.Tensor:
     return torch.ones(env.num_envs, device=env.device)
 
 
-def stride(env, along_heading: bool = True, min_command: float = 0.1, speed_std: float | None = None) -> torch.Tensor:
+def stride(env, along_heading: bool = True, min_command: float = 0.1, speed_std: float | None = None,
+           along_command: bool = False) -> torch.Tensor:
     """The paper's r_stride = I_contact ||p_current - p_last_contact||, read per step: every step a foot is in
     contact (I_contact, a state) it pays the length of the step that put it there, from the point where it last
     touched the ground before this stance (p_last_contact) to where it stands now (p_current).
@@ -118,7 +125,9 @@ def stride(env, along_heading: bool = True, min_command: float = 0.1, speed_std:
     Two documented changes to the paper's norm: ``along_heading`` pays only the forward part of the step (along the
     base heading at the touchdown, never negative), so that straddling or side steps earn nothing; and nothing is
     paid while the commanded speed is below ``min_command`` (m/s), where one step held in a split stance would
-    otherwise be paid for as long as the robot stands.
+    otherwise be paid for as long as the robot stands. ``along_command`` pays the part of the step along the
+    commanded walking direction instead (the heading's forward part when walking straight ahead), so that a
+    walker steered sideways or backwards is paid for the steps that go where it is told.
 
     ``speed_std`` (m/s; None: off) pays the step only as far as the base keeps the commanded velocity, times
     exp(-||v_cmd_xy - v_base_xy||^2 / speed_std^2). Without it longer steps at the same cadence pay more by walking
@@ -126,7 +135,13 @@ def stride(env, along_heading: bool = True, min_command: float = 0.1, speed_std:
     step 0.48 m at 2.9 steps/s). With it, at the commanded speed the reading above holds (the gate is 1), and a
     longer step can only be bought with a slower cadence, the paper's "longer strides" at a given speed."""
     step = env.feet.stance_step  # [N, foot, (forward, lateral)], 0 in the air
-    length = step[..., 0].clamp(min=0.0) if along_heading else step.norm(dim=-1)
+    if along_command:
+        direction = env.commands[:, :2] / env.commands[:, :2].norm(dim=-1, keepdim=True).clamp(min=1e-6)
+        length = (step * direction.unsqueeze(1)).sum(-1).clamp(min=0.0)
+    elif along_heading:
+        length = step[..., 0].clamp(min=0.0)
+    else:
+        length = step.norm(dim=-1)
     moving = env.commands[:, :2].norm(dim=-1) >= min_command
     reward = length.sum(-1) * moving
     if speed_std is not None:

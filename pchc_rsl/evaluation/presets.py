@@ -113,6 +113,7 @@ def evaluation_preset(cfg, push_preset: str, evaluation: TaskEvaluation):
     speed, window = evaluation.pushes[push_preset]
     env.push = PushConfig(interval_s=(3.0, 3.0), velocity=(speed, speed), window_s=window)
     env.push.only_when_standing = evaluation.push_only_when_standing
+    env.command_resample_s = None  # one command per episode: the figures are per command
     if hasattr(env, "curriculum"):
         env.curriculum = False
     if evaluation.command is not None:  # every episode: training's standing episodes would dilute the gait figures
