@@ -56,10 +56,11 @@ class FootContacts:
         self.contact = contact
 
     def air_time_histogram(self) -> torch.Tensor:
-        """[N, MAX_AIR_STEPS] this step's touchdowns counted by their air time in policy steps (bin b: b + 1 steps)."""
+        """[N, 2, MAX_AIR_STEPS] this step's touchdowns of each foot counted by their air time in policy steps
+        (bin b: b + 1 steps)."""
         steps = (self.last_air_time / self.dt).round().long().clamp(1, MAX_AIR_STEPS) - 1  # [N, 2]
-        counts = torch.zeros(self.contact.shape[0], MAX_AIR_STEPS, device=self.contact.device)
-        return counts.scatter_add_(1, steps, self.first_contact.float())
+        counts = torch.zeros(*self.contact.shape, MAX_AIR_STEPS, device=self.contact.device)
+        return counts.scatter_add_(2, steps.unsqueeze(-1), self.first_contact.float().unsqueeze(-1))
 
     def reset(self, env_ids: torch.Tensor, touch_substeps: torch.Tensor, foot_pos: torch.Tensor,
               planted_height: float) -> None:
@@ -77,7 +78,7 @@ class FootContacts:
 
 
 def median_from_histogram(counts: torch.Tensor, dt: float) -> torch.Tensor:
-    """[n, B] touchdown counts per air-time bin -> [n] median air time, s (the lower median; NaN with no
+    """[..., B] touchdown counts per air-time bin -> [...] median air time, s (the lower median; NaN with no
     touchdown)."""
     total = counts.sum(-1)
     cumulative = counts.cumsum(-1)

@@ -21,7 +21,7 @@ from rsl_rl.env import VecEnv
 
 from pchc_rsl.envs.g1_config import G1EnvConfig, PushConfig, RandomizationConfig, RewardTerm
 from pchc_rsl.envs.g1_contacts import FootContacts, median_from_histogram
-from pchc_rsl.envs.g1_metrics import EpisodeSums, ratio
+from pchc_rsl.envs.g1_metrics import EpisodeSums, larger_over_smaller, ratio
 from pchc_rsl.envs.g1_observations import ObservationBuffers
 from pchc_rsl.envs.g1_pushes import Pushes
 from pchc_rsl.envs.g1_randomization import model_variants
@@ -31,6 +31,10 @@ from pchc_rsl.envs.reward_groups import RewardGroups
 from pchc_rsl.preference import EnvPreferences
 from pchc_rsl.robots.g1.constants import STANDING_HEIGHT, holding_gains
 from pchc_rsl.robots.g1.model import build_g1_model, default_joint_positions
+
+GAIT_SETTLE_S = 0.5
+"""The per-foot gait figures (swing time, forward step) leave out the touchdowns of an episode's first 0.5 s: the
+first steps out of the standing start are not the gait."""
 
 __all__ = ["G1Env", "G1EnvConfig", "PushConfig", "RandomizationConfig", "RewardTerm"]
 
@@ -85,6 +89,10 @@ class G1Env(VecEnv):
         self._delay_range = self._substeps_of(cfg.action_delay_s)
         self.episode_length_buf = torch.zeros(n, dtype=torch.long, device=dev)
         self.commands = torch.zeros(n, 3, device=dev)
+        self.previous_yaw = torch.zeros(n, device=dev)
+        """[N] the base's yaw at the last step (rad): its per-step change, summed, is the turn unwrapped."""
+        self.episode_origin = torch.zeros(n, 2, device=dev)
+        self.episode_start_heading = torch.zeros(n, 2, device=dev)
         self.command_countdown = torch.zeros(n, dtype=torch.long, device=dev)
         self.preferences = EnvPreferences(n, self.num_objectives, cfg.preference_concentration, self.generator, dev)
         self.preference = self.preferences.values
@@ -134,6 +142,9 @@ class G1Env(VecEnv):
         self.last_actions[ids] = 0.0
         self.joint_targets[ids] = self.default_joint_pos
         self.episode_length_buf[ids] = 0
+        self.previous_yaw[ids] = self.robot.yaw[ids]
+        self.episode_origin[ids] = self.robot.base_pos[ids, :2]
+        self.episode_start_heading[ids] = self.robot.heading[ids]
         self.feet.reset(ids, self.robot.foot_touch_substeps, self.robot.foot_pos, self.cfg.planted_foot_height)
         self.pushes.reset(ids)
         self.episode_reward_sums[ids] = 0.0
@@ -234,7 +245,7 @@ class G1Env(VecEnv):
         dones = terminated | time_outs
         reward = reward_groups[:, 0] + (self.preference * reward_groups[:, 1:]).sum(-1)
         self.episode_reward_sums += reward_groups
-        self.episode.add(self.step_metrics())
+        self.record_step_metrics()
         self.pushes.advance_window()
         self.observations.push_amp(self)
         amp_before_reset = self.observations.amp.flatten(1).clone()
@@ -300,20 +311,35 @@ class G1Env(VecEnv):
         closing = self.pushes.active & self.pushes.closing()
         feet = self.feet
         step = feet.step_vector  # [N, foot, (forward, lateral)], 0 where no touchdown
+        air_time_histogram = feet.air_time_histogram()  # [N, foot, bins]
+        settled = (self.episode_length_buf * self.dt > GAIT_SETTLE_S).float()  # [N]
+        yaw_change = torch.remainder(self.robot.yaw - self.previous_yaw + math.pi, 2 * math.pi) - math.pi
         return {
             "stride_sum": feet.stride.sum(-1),
             "touchdowns": feet.first_contact.float().sum(-1),
             "forward_step_sum": step[..., 0].sum(-1),
             "side_step_sum": step[..., 1].abs().sum(-1),
             "backward_touchdowns": (feet.first_contact & (step[..., 0] < 0)).float().sum(-1),
-            "air_time_histogram": feet.air_time_histogram(),
+            "air_time_histogram": air_time_histogram.sum(1),
+            "settled_air_time_histogram": air_time_histogram * settled[:, None, None],
+            "settled_touchdowns": feet.first_contact.float() * settled[:, None],  # [N, foot]
+            "settled_forward_step_sum": step[..., 0] * settled[:, None],  # [N, foot]
             "forward_speed_sum": self.robot.base_lin_vel[:, 0],
             "command_speed_sum": self.commands[:, 0],
+            "lateral_speed_sum": self.robot.base_lin_vel[:, 1],
+            "lateral_command_sum": self.commands[:, 1],
+            "yaw_change_sum": yaw_change,
+            "yaw_rate_command_sum": self.commands[:, 2],
             "steps": torch.ones(self.num_envs, device=self.device),
             "push_deviation_sum": torch.where(closing, self.pushes.max_deviation, 0.0),
             "com_deviation_sum": torch.where(closing, self.pushes.max_com_deviation, 0.0),
             "pushes": closing.float(),
         }
+
+    def record_step_metrics(self) -> None:
+        """Add this step's quantities to the episode sums; the yaw they were turned from moves on."""
+        self.episode.add(self.step_metrics())
+        self.previous_yaw = self.robot.yaw.clone()
 
     def _push_sums(self, env_ids: torch.Tensor, key: str, open_values: torch.Tensor) -> tuple[torch.Tensor, ...]:
         """Deviation sum and push count of these envs' episodes, counting a push whose window the episode's end cut
@@ -328,6 +354,13 @@ class G1Env(VecEnv):
         s = self.episode.get(env_ids)
         deviation, pushes = self._push_sums(env_ids, "push_deviation_sum", self.pushes.max_deviation)
         touchdowns = s["touchdowns"]
+        swing = median_from_histogram(s["settled_air_time_histogram"], self.dt)  # [n, foot]
+        foot_step = ratio(s["settled_forward_step_sum"], s["settled_touchdowns"])  # [n, foot]
+        duration = s["steps"] * self.dt
+        turned = s["yaw_change_sum"]  # rad, unwrapped
+        start_heading = self.episode_start_heading[env_ids]
+        moved = self.robot.base_pos[env_ids, :2] - self.episode_origin[env_ids]
+        sideways = -moved[:, 0] * start_heading[:, 1] + moved[:, 1] * start_heading[:, 0]
         return {
             "stride_length": ratio(s["stride_sum"], touchdowns),
             "push_deviation": ratio(deviation, pushes),
@@ -338,6 +371,16 @@ class G1Env(VecEnv):
             "backward_touchdowns": 100.0 * ratio(s["backward_touchdowns"], touchdowns),
             "forward_speed": ratio(s["forward_speed_sum"], s["steps"]),
             "command_speed": ratio(s["command_speed_sum"], s["steps"]),
+            "air_time_left": swing[:, 0],
+            "air_time_right": swing[:, 1],
+            "swing_ratio": larger_over_smaller(swing),
+            "forward_step_left": foot_step[:, 0],
+            "forward_step_right": foot_step[:, 1],
+            "step_ratio": larger_over_smaller(foot_step),
+            "heading_drift": (turned - s["yaw_rate_command_sum"] * self.dt).abs() * (180.0 / math.pi),
+            "yaw_rate_error": (ratio(turned, duration) - ratio(s["yaw_rate_command_sum"], s["steps"])).abs(),
+            "lateral_speed_error": ratio(s["lateral_speed_sum"] - s["lateral_command_sum"], s["steps"]).abs(),
+            "lateral_drift": sideways.abs(),
         }
 
     def _episode_log(self, done_ids: torch.Tensor, finished: dict[str, torch.Tensor], unstable: torch.Tensor) -> dict:

@@ -29,3 +29,10 @@ class EpisodeSums:
 def ratio(total: torch.Tensor, count: torch.Tensor) -> torch.Tensor:
     """total / count, NaN where count is 0 (a metric undefined in that episode)."""
     return torch.where(count > 0, total / count.clamp(min=1), float("nan"))
+
+
+def larger_over_smaller(pair: torch.Tensor) -> torch.Tensor:
+    """[n, 2] left and right figures -> [n] the larger over the smaller (1: symmetric); NaN where either is NaN or
+    not positive (a foot that never stepped forward has no ratio)."""
+    low, high = pair.min(dim=-1).values, pair.max(dim=-1).values
+    return torch.where(low > 0, high / low.clamp(min=1e-9), float("nan"))

@@ -57,7 +57,7 @@ class RobotState:
         self.base_lin_vel_w = qvel[:, :3]
         self.base_ang_vel = qvel[:, 3:6]  # free joint: angular velocity in the body frame
         self.base_lin_vel = quat_rotate_inverse(self.base_quat, self.base_lin_vel_w)
-        yaw = yaw_of(self.base_quat)
+        yaw = self.yaw = yaw_of(self.base_quat)
         self.heading = torch.stack([yaw.cos(), yaw.sin()], dim=-1)
         """[N, 2] the base's forward direction in the horizontal plane (world frame)."""
         self.projected_gravity = quat_rotate_inverse(self.base_quat, self.gravity)

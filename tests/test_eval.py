@@ -23,6 +23,15 @@ def test_aggregate_by_hand():
     assert out["success"] == pytest.approx(100.0)
 
 
+def test_heading_drift_is_also_reported_as_median_and_90th_percentile():
+    """Drifts 1..10 degrees (NaN left out): median 5.5; 90th percentile by linear interpolation 1 + 0.9 x 9 = 9.1."""
+    out = aggregate([{"heading_drift": float(v)} for v in [*range(10, 0, -1), float("nan")]])
+    assert out["heading_drift"] == pytest.approx(5.5)
+    assert out["heading_drift_median"] == pytest.approx(5.5)
+    assert out["heading_drift_p90"] == pytest.approx(9.1)
+    assert "stride_length_median" not in aggregate([{"stride_length": 0.3}])
+
+
 def test_aggregate_gives_95_percent_intervals():
     from scipy import stats
 

@@ -427,6 +427,75 @@ def test_gait_metrics_of_a_scripted_walk_and_of_backward_side_taps():
     assert medians[0].item() == pytest.approx(0.02) and math.isnan(medians[1].item())
 
 
+def test_per_foot_gait_heading_and_steering_metrics_of_a_scripted_limping_turn():
+    """A hand-worked 6 s episode at dt 0.02: the left foot swings 15 steps and lands 0.4 m ahead, the right swings
+    10 steps and lands 0.3 m ahead, each once per 30-step cycle; each foot's first landing (0.1 m, within the first
+    0.5 s) is left out. A swing of s steps counts s + 1 steps of air (its touchdown step), so the swings are 0.32 s
+    and 0.22 s (ratio 16/11) and the steps 0.4 m and 0.3 m (ratio 4/3). The base turns at 0.5 rad/s from yaw 3.0
+    rad (through the +-pi wrap) against a commanded 0.4 rad/s: 0.6 rad = 34.38 degrees off the commanded heading
+    and a yaw-rate error of 0.1 rad/s; it moves sideways at 0.25 m/s against 0.3 commanded (error 0.05 m/s), and
+    ends 0.8 m to the side of its starting line (facing +y from (1, 2), it ends at (0.2, 7))."""
+    env = make_walk_env(num_envs=1)
+    ids = torch.tensor([0])
+    dt, K = env.dt, env.cfg.decimation
+    assert dt == pytest.approx(0.02)
+    env.episode.reset(ids)
+    env.feet.reset(ids, torch.full((1, K, 2), 100.0), torch.zeros(1, 2, 3), 0.03)
+    env.commands[:] = torch.tensor([0.0, 0.3, 0.4])
+    env.robot.base_lin_vel = torch.tensor([[0.0, 0.25, 0.0]])
+    env.previous_yaw[:] = 3.0
+    env.episode_length_buf[:] = 0
+    planted = [0.0, 0.0]
+    swing_steps, step_length, offset = (15, 10), (0.4, 0.3), (0, 20)
+    for i in range(300):
+        env.episode_length_buf += 1
+        touch, pos = torch.full((1, K, 2), 100.0), torch.zeros(1, 2, 3)
+        for foot in range(2):
+            phase = (i + offset[foot]) % 30
+            if phase < swing_steps[foot]:
+                touch[0, :, foot] = 0.0
+            elif phase == swing_steps[foot]:
+                planted[foot] += 0.1 if planted[foot] == 0.0 else step_length[foot]
+            pos[0, foot, 0] = planted[foot]
+        env.feet.update(touch, pos, torch.tensor([[1.0, 0.0]]))
+        env.robot.yaw = torch.tensor([math.remainder(3.0 + 0.01 * (i + 1), 2 * math.pi)])
+        env.record_step_metrics()
+    env.episode_origin[:] = torch.tensor([1.0, 2.0])
+    env.episode_start_heading[:] = torch.tensor([0.0, 1.0])
+    env.robot.base_pos = torch.tensor([[0.2, 7.0, 0.75]])
+    m = {key: value.item() for key, value in env.episode_metrics(ids).items()}
+    assert m["air_time_left"] == pytest.approx(0.32) and m["air_time_right"] == pytest.approx(0.22)
+    assert m["swing_ratio"] == pytest.approx(16 / 11)
+    assert m["forward_step_left"] == pytest.approx(0.4) and m["forward_step_right"] == pytest.approx(0.3)
+    assert m["step_ratio"] == pytest.approx(4 / 3)
+    assert m["heading_drift"] == pytest.approx(math.degrees(0.6), abs=1e-3)
+    assert m["yaw_rate_error"] == pytest.approx(0.1, abs=1e-5)
+    assert m["lateral_speed_error"] == pytest.approx(0.05, abs=1e-6)
+    assert m["lateral_drift"] == pytest.approx(0.8, abs=1e-6)
+
+
+def test_commands_are_resampled_within_an_episode_with_standing_and_straight_shares():
+    """command_resample_s draws a new command every 1-2 s (50-100 steps); over 400 steps of 256 envs each env gets
+    4-8 commands, about 20% of them all zero and 25% of the rest with no yaw rate."""
+    env = make_walk_env(num_envs=256, command_resample_s=(1.0, 2.0), zero_command_probability=0.2,
+                        zero_yaw_rate_probability=0.25)
+    seen, draws = [], torch.zeros(256)
+    for _ in range(400):
+        countdown = env.command_countdown.clone()
+        env._resample_due_commands()
+        drew = env.command_countdown > countdown  # a new command restarts the countdown
+        draws += drew.float()
+        seen.append(env.commands[drew])
+    drawn = torch.cat(seen)
+    assert 4 <= draws.min() and draws.max() <= 8
+    standing = (drawn == 0).all(-1).float().mean().item()
+    straight = ((drawn[:, 2] == 0) & (drawn[:, :2] != 0).any(-1)).float().mean().item() / (1 - standing)
+    assert standing == pytest.approx(0.2, abs=0.05) and straight == pytest.approx(0.25, abs=0.05)
+    r = env.cfg.command_ranges
+    for column, key in enumerate(("lin_vel_x", "lin_vel_y", "ang_vel_z")):
+        assert r[key][0] <= drawn[:, column].min() and drawn[:, column].max() <= r[key][1]
+
+
 def test_single_stance_pays_walking_not_hopping_shuffling_or_standing():
     from pchc_rsl.envs import g1_rewards
 

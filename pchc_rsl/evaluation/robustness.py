@@ -27,9 +27,15 @@ def _physical(friction: float = 1.0, mass: float = 0.0, strength: float = 1.0) -
             f"env.randomization.actuator_strength={strength},{strength}"]
 
 
-def _command(speed: float) -> list[str]:
-    ranges = {"lin_vel_x": [speed, speed], "lin_vel_y": [0.0, 0.0], "ang_vel_z": [0.0, 0.0]}
+def _command(speed: float, lateral: float = 0.0, yaw_rate: float = 0.0) -> list[str]:
+    ranges = {"lin_vel_x": [speed, speed], "lin_vel_y": [lateral, lateral], "ang_vel_z": [yaw_rate, yaw_rate]}
     return ["env.command_ranges=" + json.dumps(ranges).replace(" ", "")]  # the preset already drops standing episodes
+
+
+STEERING = [("turn left 0.5 rad/s", 0.5, 0.0, 0.5), ("turn right 0.5 rad/s", 0.5, 0.0, -0.5),
+            ("side step left 0.3 m/s", 0.0, 0.3, 0.0), ("side step right 0.3 m/s", 0.0, -0.3, 0.0)]
+"""Steering commands of the walking evaluation: (name, forward m/s, lateral m/s, yaw rate rad/s); their yaw-rate
+and lateral-speed errors say whether the walker goes where it is told."""
 
 
 WALK_PUSH_SWEEP = (1.0, 1.5, 2.0)
@@ -40,7 +46,8 @@ FALL_RECOVERY_PUSH_SWEEP = (1.6, 2.0, 2.4)
 def default_conditions(task: str) -> list[Condition]:
     """The default set of the evaluation issue: nominal, action latency 10 and 20 ms, the paper physics for a
     ``-fast`` policy, friction 0.4 and 1.2, pelvis mass -1 and +5 kg, actuator strength 0.8, observation noise,
-    commands 0 and 1.0 m/s (walking; 0.5 is the nominal), and a push-speed sweep."""
+    commands 0 and 1.0 m/s and the steering commands (walking; 0.5 m/s straight is the nominal), and a push-speed
+    sweep."""
     walking = task.startswith("g1-walk")
     conditions = [
         Condition("nominal"),
@@ -59,13 +66,15 @@ def default_conditions(task: str) -> list[Condition]:
     ]
     if walking:
         conditions += [Condition("command 0 m/s", _command(0.0)), Condition("command 1.0 m/s", _command(1.0))]
+        conditions += [Condition(name, _command(*command)) for name, *command in STEERING]
     for speed in WALK_PUSH_SWEEP if walking else FALL_RECOVERY_PUSH_SWEEP:
         conditions.append(Condition(f"push {speed:g} m/s", [f"env.push.velocity={speed},{speed}"]))
     return conditions
 
 
 HEADLINE = {
-    "walk": [("fall_rate", "falls (%)"), ("forward_speed", "forward speed (m/s)")],
+    "walk": [("fall_rate", "falls (%)"), ("forward_speed", "forward speed (m/s)"),
+             ("yaw_rate_error", "yaw-rate error (rad/s)"), ("lateral_speed_error", "lateral-speed error (m/s)")],
     "fall": [("success", "success (%)"), ("energy_overall", "energy (J/s)")],
 }
 """The figures robustness.md and the heatmap show per task family (robustness.json has every metric)."""

@@ -11,13 +11,17 @@ RATE_METRICS = {"success": "success", "fell": "fall_rate"}
 """Per-episode 0/1 outcomes reported as percentages (metric key -> reported key)."""
 
 
+DISTRIBUTION_METRICS = ("heading_drift", "lateral_drift")
+"""Metrics whose spread over episodes matters as much as their mean: also reported as KEY_median and KEY_p90."""
+
 Z95 = 1.959963984540054
 
 
 def aggregate(episodes: list[dict[str, float]]) -> dict:
     """Mean of each metric over episodes, ignoring NaN (a metric undefined in an episode, e.g. no push), with its
     95% interval under ``KEY_ci95`` ([low, high]): Student's t for measured quantities, Wilson's score interval for
-    the 0/1 outcomes 'success' and 'fell', which become percentages ('fell' is reported as 'fall_rate')."""
+    the 0/1 outcomes 'success' and 'fell', which become percentages ('fell' is reported as 'fall_rate'); the
+    DISTRIBUTION_METRICS also with their median and 90th percentile."""
     keys = sorted({k for e in episodes for k in e})
     out: dict = {}
     for key in keys:
@@ -37,6 +41,9 @@ def aggregate(episodes: list[dict[str, float]]) -> dict:
             interval = [float("nan"), float("nan")]
         out[key] = mean
         out[f"{key}_ci95"] = interval
+        if key in DISTRIBUTION_METRICS:
+            out[f"{key}_median"] = float(np.median(values)) if n else float("nan")
+            out[f"{key}_p90"] = float(np.percentile(values, 90)) if n else float("nan")
     return out
 
 
