@@ -1,0 +1,18 @@
+import math
+
+import pytest
+
+from tool_loader import load_tool
+
+
+def test_commands_integrate_to_the_pose_they_describe():
+    """0.5 m/s at 0.5 rad/s for pi s is a quarter circle of radius 1: from the origin facing +x it ends at (1, 1)
+    facing +y; a side step of 0.3 m/s for 2 s facing +y then moves the robot 0.6 m towards -x."""
+    steering = load_tool("steering_sequence")
+    quarter = [("arc", math.pi, (0.5, 0.0, 0.5))]
+    x, y, yaw = steering.integrate_commands(quarter, dt=1e-4)
+    assert (x, y, yaw) == pytest.approx((1.0, 1.0, math.pi / 2), abs=1e-3)
+    x, y, yaw = steering.integrate_commands(quarter + [("side", 2.0, (0.0, 0.3, 0.0))], dt=1e-4)
+    assert (x, y) == pytest.approx((0.4, 1.0), abs=1e-3)
+    x, y, _ = steering.integrate_commands([("stand", 3.0, (0.0, 0.0, 0.0))], dt=0.02, start_xy=(2.0, -1.0))
+    assert (x, y) == (2.0, -1.0)
