@@ -77,7 +77,7 @@ def walk_viewer():
     """The shipped walker in a web viewer on a free loopback port (no loop running: tests step it)."""
     if not g1_available():
         pytest.skip("G1 model unavailable (set MENAGERIE_ROOT offline)")
-    from pchc_rsl.cli.play import load_policy
+    from pchc_rsl.evaluation import load_policy
     from pchc_rsl.evaluation import TASK_EVALUATION
     from pchc_rsl.web_viewer import WebViewer
 
@@ -149,7 +149,7 @@ def test_the_panels_show_rewards_and_gait(walk_viewer):
 
 def test_the_toy_gets_its_plot(tmp_path):
     from pchc_rsl.cli import train
-    from pchc_rsl.cli.play import load_policy
+    from pchc_rsl.evaluation import load_policy
     from pchc_rsl.web_viewer import WebViewer
 
     train.main(["--task", "toy", "--num-envs", "2", "--max-iterations", "1", "--log-dir", str(tmp_path / "toy")])
