@@ -22,7 +22,7 @@ def g1_available() -> bool:
         return False
 
 
-pytestmark = pytest.mark.skipif(not g1_available(), reason="G1 model unavailable (set MENAGERIE_ROOT offline)")
+pytestmark = pytest.mark.skipif(not g1_available(), reason="G1 model unavailable (set MENAGERIE_ROOT)")
 
 
 def make_walk_env(num_envs=4, seed=0, **env_overrides):

@@ -40,3 +40,11 @@ def test_no_library_module_or_tool_imports_the_cli():
     assert any(p.name == "build.py" for p in files) and any(p.parent.name == "tools" for p in files)
     offenders = {str(p.relative_to(ROOT)): hits for p in files if (hits := cli_imports(p))}
     assert offenders == {}, f"library code imports the CLI (move the shared code into a library module): {offenders}"
+
+
+def test_a_run_without_the_g1_model_ends_by_counting_its_skipped_g1_tests():
+    from conftest import G1_SKIP, g1_skip_line
+
+    assert g1_skip_line(["chromium missing", "set PCHC_MOTION_DIR"]) is None
+    line = g1_skip_line([G1_SKIP, "chromium missing", G1_SKIP, G1_SKIP])
+    assert line.startswith("3 of 4 skipped tests need the Unitree G1 model") and "MENAGERIE_ROOT" in line

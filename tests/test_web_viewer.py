@@ -33,7 +33,7 @@ def g1_available() -> bool:
     return available()
 
 
-needs_g1 = pytest.mark.skipif(not g1_available(), reason="G1 model unavailable (set MENAGERIE_ROOT offline)")
+needs_g1 = pytest.mark.skipif(not g1_available(), reason="G1 model unavailable (set MENAGERIE_ROOT)")
 
 
 def test_sliders_map_onto_the_simplex():
@@ -76,7 +76,7 @@ def test_a_missing_viser_names_the_extra(monkeypatch):
 def walk_viewer():
     """The shipped walker in a web viewer on a free loopback port (no loop running: tests step it)."""
     if not g1_available():
-        pytest.skip("G1 model unavailable (set MENAGERIE_ROOT offline)")
+        pytest.skip("G1 model unavailable (set MENAGERIE_ROOT)")
     from pchc_rsl.evaluation import load_policy
     from pchc_rsl.evaluation import TASK_EVALUATION
     from pchc_rsl.web_viewer import WebViewer
