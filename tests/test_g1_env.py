@@ -507,7 +507,7 @@ class HostSyncRecorder:
 
 @pytest.mark.parametrize("task", ["g1-walk-fast", "g1-fall-recovery-fast"])
 def test_a_step_waits_on_the_device_only_for_the_reset_indices(monkeypatch, task):
-    """Issue 35: one host sync per step, the indices of the envs to reset (rsl-rl's own Logger makes the same one
+    """One host sync per step, the indices of the envs to reset (rsl-rl's own Logger makes the same one
     at every step); pushes, the divergence check, preference resampling, the curriculum and the episode log work
     on masks. The recorder can fail: a boolean-mask assignment in the env is caught (last lines)."""
     from pchc_rsl.build import make_env

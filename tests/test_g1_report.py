@@ -157,13 +157,13 @@ def test_sections_whose_inputs_are_not_given_are_kept_and_fewer_episodes_need_fo
     text = open(path).read()
     walking = text[text.index("## Walking"):]
     with open(path, "a") as f:  # as if it had training curves and a claim (d) section from an earlier report
-        f.write("\n### Training\n\nwalk-a, 2.3 hours\n\n## Claim (d): one PCHC walker against fixed-preference "
+        f.write("\n### Training\n\nrun A, 2.3 hours\n\n## Claim (d): one PCHC walker against fixed-preference "
                 "walkers, same budget each\n\nfixed walkers here\n")
     fall_metrics = [{"mild/success": 90, "strong/success": s, "energy_overall": e, "mild/com_displacement": 1.0}
                     for s, e in zip([60, 70, 80, 85, 92], [400, 450, 500, 550, 600])]
     fall = write_results(tmp_path / "fall", fall_metrics)
     text = open(g1_report.main(["--fall", fall, "--docs", str(docs)])).read()
-    assert walking.strip() in text and "walk-a, 2.3 hours" in text and "fixed walkers here" in text
+    assert walking.strip() in text and "run A, 2.3 hours" in text and "fixed walkers here" in text
     assert "## Fall recovery from prone (Table I)" in text
     few = write_results(tmp_path / "few", walk_metrics, episodes=4)
     import pytest

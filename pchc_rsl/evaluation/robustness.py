@@ -38,7 +38,7 @@ FALL_RECOVERY_PUSH_SWEEP = (1.6, 2.0, 2.4)
 
 
 def default_conditions(task: str) -> list[Condition]:
-    """The default set of the evaluation issue: nominal, action latency 10 and 20 ms, the paper physics for a
+    """The default set of deployment shifts: nominal, action latency 10 and 20 ms, the paper physics for a
     ``-fast`` policy, friction 0.4 and 1.2, pelvis mass -1 and +5 kg, actuator strength 0.8, observation noise,
     commands 0 and 1.0 m/s (walking; 0.5 is the nominal), and a push-speed sweep."""
     walking = task.startswith("g1-walk")
