@@ -2,7 +2,7 @@
 OnPolicyRunner, and the two class names changed in the config.
 
     pip install -e .        # or: pip install pchc-rsl
-    python examples/rsl_rl_integration.py
+    python examples/rsl_rl_integration.py [--onnx policy.onnx]
 
 The environment is a point mass between two goals; its two objectives are the negative squared distances to goal A
 and to goal B. What PCHC asks of an environment is all here:
@@ -92,6 +92,7 @@ def main(argv: list[str] | None = None) -> dict[str, list[float]]:
     parser.add_argument("--iterations", type=int, default=80)
     parser.add_argument("--num-envs", type=int, default=64)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--onnx", metavar="FILE", help="also export the policy to this ONNX file")
     args = parser.parse_args(argv)
     torch.manual_seed(args.seed)
     env = TwoGoalEnv(args.num_envs)
@@ -102,6 +103,11 @@ def main(argv: list[str] | None = None) -> dict[str, list[float]]:
     for name, preference in (("(1, 0)", [1.0, 0.0]), ("(0.5, 0.5)", [0.5, 0.5]), ("(0, 1)", [0.0, 1.0])):
         ends[name] = final_position(runner, env, preference).tolist()
         print(f"lambda = {name}: ends at ({ends[name][0]:.2f}, {ends[name][1]:.2f})")
+    if args.onnx:
+        from pchc_rsl.export import export_onnx
+
+        export_onnx(runner.alg.actor, args.onnx)  # inputs "obs" and "preference"; checked against onnxruntime
+        print(f"exported {args.onnx}")
     return ends
 
 

@@ -10,8 +10,10 @@ from pathlib import Path
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "rsl_rl_integration.py"
 
 
-def test_the_rsl_rl_example_reaches_each_goal_at_its_preference():
-    result = subprocess.run([sys.executable, str(EXAMPLE)], capture_output=True, text=True, timeout=600)
+def test_the_rsl_rl_example_reaches_each_goal_at_its_preference(tmp_path):
+    onnx = tmp_path / "policy.onnx"
+    result = subprocess.run([sys.executable, str(EXAMPLE), "--onnx", str(onnx)], capture_output=True, text=True,
+                            timeout=600)
     assert result.returncode == 0, result.stderr[-2000:]
     ends = {name: (float(x), float(y)) for name, x, y in
             re.findall(r"lambda = (\(.*?\)): ends at \((-?[\d.]+), (-?[\d.]+)\)", result.stdout)}
@@ -21,3 +23,11 @@ def test_the_rsl_rl_example_reaches_each_goal_at_its_preference():
     assert distance(ends["(0, 1)"], (0.0, 1.0)) < 0.35, ends
     # in between, a compromise: nearer the midpoint of the goals than either goal
     assert distance(ends["(0.5, 0.5)"], (0.5, 0.5)) < distance(ends["(0.5, 0.5)"], (1.0, 0.0)), ends
+    # the exported file runs with a preference input of its own
+    import numpy as np
+
+    from pchc_rsl.export import OnnxPolicy
+
+    policy = OnnxPolicy(str(onnx))
+    actions = policy(np.zeros((3, policy.obs_dim), np.float32), np.array([[1.0, 0.0], [0.5, 0.5], [0.0, 1.0]]))
+    assert actions.shape == (3, 2)

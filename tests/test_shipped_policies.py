@@ -1,5 +1,5 @@
 """The released G1 policies in policies/: small, their ONNX files export the same networks, and the walker does what
-docs/results/g1.md reports (it stays up under the mild pushes and strides longer at lambda = (0, 1))."""
+its model card reports (it stays up under the mild pushes and strides longer at lambda = (0, 1))."""
 
 import json
 import os

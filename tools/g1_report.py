@@ -279,7 +279,8 @@ def claim_d_section(results: dict, claim: ClaimD) -> list[str]:
     pchc_rows = rows_by_preference(pchc)
     pchc_steps = pchc.get("env_steps") or env_steps(pchc.get("checkpoint", ""))
     titles = [title for _, title, _ in claim.columns]
-    lines = ["| Policy | Preference | Env steps | " + " | ".join(titles) + " | Episodes |",
+    names = "disturbance, stride" if claim.evaluation is WALK_EVALUATION else "energy, disturbance"
+    lines = [f"| Policy | lambda ({names}) | Env steps | " + " | ".join(titles) + " | Episodes |",
              "|---|---|---|" + "---|" * len(titles) + "---|"]
     verdicts = []
     for result in fixed:

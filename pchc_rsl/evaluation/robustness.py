@@ -71,8 +71,12 @@ HEADLINE = {
 """The figures robustness.md and the heatmap show per task family (robustness.json has every metric)."""
 
 
-def headline(task: str) -> list[tuple[str, str]]:
-    return HEADLINE["walk" if task.startswith("g1-walk") else "fall"]
+def headline(task: str, rows: list[dict] | None = None) -> list[tuple[str, str]]:
+    """The task's headline figures; with ``rows``, only those that some row has."""
+    figures = HEADLINE["walk" if task.startswith("g1-walk") else "fall"]
+    if rows is None:
+        return figures
+    return [(key, title) for key, title in figures if any(key in row["metrics"] for row in rows)]
 
 
 def run_robustness(path: str, config: dict, preferences, conditions: list[Condition], num_envs: int, episodes: int,
@@ -108,14 +112,14 @@ def robustness_markdown(report: dict) -> str:
     cell = {(r["condition"], tuple(r["preference"])): r for r in report["rows"]}
     lines = [f"Deployment shifts of {report['checkpoint']} ({report['task']}); mean ± 95% interval half-width, "
              "rates with the Wilson 95% interval", ""]
-    for key, title in headline(report["task"]):
+    for key, title in headline(report["task"], report["rows"]):
         lines += [f"### {title}", "",
                   "| Condition | " + " | ".join("(" + ", ".join(f"{x:.2f}" for x in p) + ")" for p in preferences)
                   + " |", "|---|" + "---|" * len(preferences)]
         for condition in report["conditions"]:
             cells = []
             for p in preferences:
-                metrics = cell[(condition, tuple(p))]["metrics"]
+                metrics = cell[(condition, tuple(p))]["metrics"] if (condition, tuple(p)) in cell else {}
                 value = metrics.get(key)
                 cells.append(format_metric(np.nan if value is None else value, metrics.get(f"{key}_ci95"), key))
             lines.append(f"| {condition} | " + " | ".join(cells) + " |")
@@ -144,7 +148,7 @@ def plot_robustness(report: dict, path: str) -> str:
     from pchc_rsl.evaluation.plots import _pyplot
 
     plt = _pyplot()
-    figures = headline(report["task"])
+    figures = headline(report["task"], report["rows"])
     conditions = report["conditions"]
     preferences = []
     for row in report["rows"]:
@@ -154,7 +158,8 @@ def plot_robustness(report: dict, path: str) -> str:
     fig, axes = plt.subplots(1, len(figures), figsize=(3.2 + 2.2 * len(figures), 0.35 * len(conditions) + 1.6),
                              squeeze=False)
     for ax, (key, title) in zip(axes[0], figures):
-        values = np.array([[cell[(c, tuple(p))].get(key) for p in preferences] for c in conditions], dtype=float)
+        values = np.array([[cell.get((c, tuple(p)), {}).get(key) for p in preferences] for c in conditions],
+                          dtype=float)
         vmin, vmax = colour_range(key, values)
         image = ax.imshow(values, aspect="auto", cmap="viridis_r" if key == "fall_rate" else "viridis",
                           vmin=vmin, vmax=vmax)
@@ -172,9 +177,9 @@ def plot_robustness(report: dict, path: str) -> str:
         ax.set_xlabel("lambda (" + ", ".join(report.get("objectives") or ["obj 1", "obj 2"]) + ")", fontsize=7)
         fig.colorbar(image, ax=ax, shrink=0.8)
     episodes = sorted({r["episodes"] for r in report["rows"]})
-    fig.suptitle(f"{os.path.basename(report['checkpoint'])} ({report['task']}) under deployment shifts: mild "
+    fig.suptitle(f"{os.path.basename(report['checkpoint'])} ({report['task']}) under deployment shifts\nmild "
                  f"pushes, {'-'.join(str(e) for e in episodes[::max(1, len(episodes) - 1)])} episodes per cell",
-                 fontsize=9)
+                 fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
