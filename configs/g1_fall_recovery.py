@@ -28,7 +28,7 @@ def fall_recovery_rewards() -> list[RewardTerm]:
         RewardTerm(R + "joint_limits", -5.0),
         # objectives, raw; a fall after standing costs 5 of energy return and 10 of disturbance return (it ends
         # the episode, and with it both costs): docs/design.md, "Fall costs". r_disturb charges the whole-body COM,
-        # the point Table I measures: docs/design.md, "The COM option".
+        # the point Table I measures: docs/design.md, "The COM option of r_disturb".
         RewardTerm(R + "energy", 1.0, group="energy", params={"k_tau": 1e-4, "k_p": 1e-3, "fall_cost": 5.0}),
         RewardTerm(R + "disturbance", 1.0, group="disturbance", params={"fall_cost": 10.0, "com": True}),
     ]
@@ -46,12 +46,12 @@ def fall_recovery_env(fast: bool = False) -> FallRecoveryConfig:
         # pushes test the stood-up robot (r_disturb, COM displacement); HoST trains getting up without pushes. The
         # range spans the calibrated evaluation presets (mild 2.25, strong 2.5 m/s). r_disturb is charged over the
         # 3 s after a push, the window in which the evaluation measures the COM displacement: docs/design.md,
-        # "The 3 s window".
+        # "The 3 s disturbance window".
         push=PushConfig(velocity=(0.5, 2.75), only_when_standing=True, window_s=3.0),
         action_delay_s=(0.0, 0.02),  # a robot's 0-20 ms from sensing to actuation
         randomization=RandomizationConfig(added_base_mass=(-1.0, 5.0), actuator_strength=(0.8, 1.1)),
         critic_push_timing=True,  # the critic sees the time left in the push window and to the next push
-        preference_concentration=0.5,  # more training preferences near the ends
+        preference_concentration=0.5,  # more training preferences near the ends (docs/design.md)
         terminate_on_fall=True,
         assist_level_step=0.1,  # HoST: 20 of 200 N per step
     )

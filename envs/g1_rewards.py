@@ -54,7 +54,7 @@ def single_stance(env, min_command: float = 0.1) -> torch.Tensor:
 def backward_touchdown(env, min_command: float = 0.1) -> torch.Tensor:
     """Touchdowns (count) whose step points backward, along the base heading, while a speed of at least
     ``min_command`` is commanded: short backward shuffles, which r_stride pays nothing but charges nothing either,
-    and which the evaluation counts. Not in the walking config: docs/design.md, "Terms left out of walking"."""
+    and which the evaluation counts. Not in the walking config: docs/design.md, "Gait terms"."""
     moving = env.commands[:, :2].norm(dim=-1) >= min_command
     backward = env.feet.first_contact & (env.feet.step_vector[..., 0] < 0)
     return backward.float().sum(-1) * moving
@@ -163,7 +163,7 @@ def disturbance(env, vertical: bool = False, fall_cost: float = 0.0, com: bool =
     Not in the paper's equation; why and what it changed: docs/design.md, "Fall costs".
 
     ``com``: x_base is the whole-body COM instead of the pelvis, the point whose displacement Table I reports, so
-    the reward charges what the table measures (docs/design.md, "The COM option")."""
+    the reward charges what the table measures (docs/design.md, "The COM option of r_disturb")."""
     pushes = env.pushes
     position = pushes.com_deviation(env.robot) if com else pushes.deviation(env.robot)
     if vertical:

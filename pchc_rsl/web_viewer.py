@@ -40,7 +40,7 @@ def require_viser():
         from mjviser import ViserMujocoScene
     except ImportError as error:
         raise WebViewerUnavailable(f"the web viewer needs viser and mjviser ({error}); install the extra: "
-                                   "pip install 'pchc-rsl[web]'") from None
+                                   "pip install -e \".[web]\"") from None
     return viser, ViserMujocoScene
 
 

@@ -67,7 +67,7 @@ def test_warp_physics_without_the_extra_says_what_to_install(tmp_path, monkeypat
     monkeypatch.chdir(tmp_path)
     monkeypatch.setitem(sys.modules, "mujoco_warp", None)  # import mujoco_warp raises ImportError
     message = one_line_exit(capsys, ["--task", "g1-walk-fast", "--physics", "warp"])
-    assert "pip install 'pchc-rsl[warp]'" in message
+    assert "pip install -e \".[warp]\"" in message
     assert not os.listdir(tmp_path)
     assert "applies to the G1 tasks" in one_line_exit(capsys, ["--task", "toy", "--physics", "warp"])
 

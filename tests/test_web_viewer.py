@@ -191,7 +191,7 @@ def browser():
         from selenium import webdriver
         from selenium.webdriver.chrome.service import Service
     except ImportError:
-        pytest.skip("selenium missing (pip install 'pchc-rsl[browser-tests]')")
+        pytest.skip("selenium missing (pip install -e \".[browser-tests]\")")
     if not (chromium and driver):
         pytest.skip("chromium and chromedriver missing (Debian: apt-get install chromium chromium-driver)")
     options = webdriver.ChromeOptions()

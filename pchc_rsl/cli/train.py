@@ -175,7 +175,7 @@ def resolve(args) -> tuple:
         notes.append(f"continuing {args.resume} with its config" + (f"; overridden: {shown}" if shown else ""))
     amp = cfg.runner.algorithm.amp_cfg
     if amp is not None and not amp.motion_files:
-        notes.append("AMP is off: no --motion-files given (see the README's AMP section).")
+        notes.append("AMP is off: no --motion-files given (see docs/training.md, AMP).")
     config = cfg.to_dict()
     # what differs from the task's defaults (resuming: from the checkpoint's config), as KEY=VALUE
     config["overrides"] = [f"{k}={_show(after[k])}" for k in changed]
