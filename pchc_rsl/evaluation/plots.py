@@ -36,7 +36,7 @@ def plot_pareto(results, evaluation, path):
     if evaluation.paper_front:
         points = sorted(evaluation.paper_front.items(), reverse=True)
         ax.plot([sign_a * p[0] for _, p in points], [sign_b * p[1] for _, p in points], "x--", color="0.4",
-                label=f"paper ({evaluation.table})")
+                label=f"paper, {evaluation.table}")
     note = HV_S_NOTE + (f"\n{evaluation.paper_note}" if evaluation.paper_note else "")
     ax.set_xlabel(("−" if sign_a < 0 else "") + evaluation.columns.get(a, a) + " (more is better)")
     ax.set_ylabel(("−" if sign_b < 0 else "") + evaluation.columns.get(b, b) + " (more is better)")
