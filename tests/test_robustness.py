@@ -76,3 +76,14 @@ def test_a_colour_scale_starts_at_zero_so_close_speeds_look_close():
     assert (0.62 - 0.48) / (high - low) < 0.15  # 0.48 and 0.62 m/s: neighbours on the scale, not its two ends
     assert colour_range("success", np.array([[97.0, 99.0]])) == (0.0, 100.0)
     assert colour_range("energy_overall", np.array([[220.0, 520.0]])) == (0.0, 520.0)
+
+
+def test_every_table_names_the_objectives_in_the_tasks_order():
+    from pchc_rsl.configs import task_config
+    from pchc_rsl.evaluation import TASK_EVALUATION, markdown_table
+
+    for task, evaluation in TASK_EVALUATION.items():
+        assert list(evaluation.objectives) == list(task_config(task).env.objective_names), task
+    row = {"preference": [1.0, 0.0], "episodes": 1, "metrics": {"goal_a": -1.0, "goal_b": -2.0}}
+    table = markdown_table([{"name": "toy", "rows": [row]}], TASK_EVALUATION["toy"])
+    assert "| Policy | lambda (goal_a, goal_b) |" in table

@@ -33,6 +33,8 @@ class TaskEvaluation:
     ours; empty where the paper gives none in the same units."""
     paper_note: str = ""
     """Why the paper's points are not drawn, when they are not."""
+    objectives: tuple[str, ...] = ()
+    """The objectives lambda weights, in order (named in every table)."""
 
 
 WALK_EVALUATION = TaskEvaluation(
@@ -47,6 +49,7 @@ WALK_EVALUATION = TaskEvaluation(
     push_presets=["mild", "strong"],
     pushes={"mild": (0.5, 1.0), "strong": (2.25, 1.0), "mild-v1": (0.5, 1.0), "strong-v1": (1.2, 1.0)},
     command=(0.5, 0.0, 0.0),
+    objectives=("disturbance", "stride"),
     # Table II: (trajectory deviation m, avg. stride m); its (1, 0) row is printed (0.10, 0.00), a typo
     paper_front={(1.0, 0.0): (0.23, 0.42), (0.75, 0.25): (0.29, 0.55), (0.5, 0.5): (0.33, 0.67),
                  (0.25, 0.75): (0.51, 0.72), (0.0, 1.0): (0.85, 0.79)},
@@ -72,6 +75,7 @@ FALL_RECOVERY_EVALUATION = TaskEvaluation(
     pushes={"mild": (2.25, 3.0), "strong": (2.5, 3.0), "mild-v1": (0.5, 1.0), "strong-v1": (1.2, 1.0)},
     push_only_when_standing=True,
     paper_note="Table I's energy is in J, ours in J/s (mean power): its points are not drawn.",
+    objectives=("energy", "disturbance"),
 )
 
 
@@ -82,6 +86,7 @@ TOY_EVALUATION = TaskEvaluation(
     reference_point=(-60.0, -60.0),
     push_presets=[],
     episode_returns=True,
+    objectives=("goal_a", "goal_b"),
 )
 
 

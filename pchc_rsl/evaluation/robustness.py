@@ -114,7 +114,8 @@ def robustness_markdown(report: dict) -> str:
              "rates with the Wilson 95% interval", ""]
     for key, title in headline(report["task"], report["rows"]):
         lines += [f"### {title}", "",
-                  "| Condition | " + " | ".join("(" + ", ".join(f"{x:.2f}" for x in p) + ")" for p in preferences)
+                  f"| Condition \\ lambda ({', '.join(report.get('objectives') or ['obj 1', 'obj 2'])}) | "
+                  + " | ".join("(" + ", ".join(f"{x:.2f}" for x in p) + ")" for p in preferences)
                   + " |", "|---|" + "---|" * len(preferences)]
         for condition in report["conditions"]:
             cells = []
