@@ -35,8 +35,8 @@ def g1_available() -> bool:
     return available()
 
 
-needs_sdk = pytest.mark.skipif(not sdk_available(), reason="unitree_sdk2py missing (pip install 'pchc-rsl[deploy]')")
-needs_g1 = pytest.mark.skipif(not g1_available(), reason="G1 model unavailable (set MENAGERIE_ROOT offline)")
+needs_sdk = pytest.mark.skipif(not sdk_available(), reason="unitree_sdk2py missing (pip install -e \".[deploy]\")")
+needs_g1 = pytest.mark.skipif(not g1_available(), reason="G1 model unavailable (set MENAGERIE_ROOT)")
 
 
 def standing_state(q=None, received_at: float = 0.0) -> RobotState:
