@@ -69,7 +69,7 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
 
-    from pchc_rsl.cli.play import load_policy
+    from pchc_rsl.evaluation.checkpoint import load_policy
 
     seconds = sum(s for _, s, _ in SEQUENCE)
     overrides = ["env.push.enabled=false", *args.overrides]
