@@ -36,6 +36,11 @@ GAIT_SETTLE_S = 0.5
 """The per-foot gait figures (swing time, forward step) leave out the touchdowns of an episode's first 0.5 s: the
 first steps out of the standing start are not the gait."""
 
+def wrap_angle(angle: torch.Tensor) -> torch.Tensor:
+    """Into [-pi, pi)."""
+    return torch.remainder(angle + math.pi, 2 * math.pi) - math.pi
+
+
 __all__ = ["G1Env", "G1EnvConfig", "PushConfig", "RandomizationConfig", "RewardTerm"]
 
 
@@ -89,6 +94,8 @@ class G1Env(VecEnv):
         self._delay_range = self._substeps_of(cfg.action_delay_s)
         self.episode_length_buf = torch.zeros(n, dtype=torch.long, device=dev)
         self.commands = torch.zeros(n, 3, device=dev)
+        self.heading_error = torch.zeros(n, device=dev)
+        """[N] the base's yaw minus the yaw its commands integrate to since the command was set (rad, wrapped)."""
         self.previous_yaw = torch.zeros(n, device=dev)
         """[N] the base's yaw at the last step (rad): its per-step change, summed, is the turn unwrapped."""
         self.episode_origin = torch.zeros(n, 2, device=dev)
@@ -143,6 +150,7 @@ class G1Env(VecEnv):
         self.joint_targets[ids] = self.default_joint_pos
         self.episode_length_buf[ids] = 0
         self.previous_yaw[ids] = self.robot.yaw[ids]
+        self.heading_error[ids] = 0.0
         self.episode_origin[ids] = self.robot.base_pos[ids, :2]
         self.episode_start_heading[ids] = self.robot.heading[ids]
         self.feet.reset(ids, self.robot.foot_touch_substeps, self.robot.foot_pos, self.cfg.planted_foot_height)
@@ -180,6 +188,7 @@ class G1Env(VecEnv):
         self.command_countdown -= 1
         due = self.command_countdown <= 0
         self.commands = torch.where(due.unsqueeze(-1), self.sample_commands(self.num_envs), self.commands)
+        self.heading_error = torch.where(due, 0.0, self.heading_error)
         self.command_countdown = torch.where(due, self._command_interval(self.num_envs), self.command_countdown)
 
     def _uniform(self, n: int, low: float, high: float) -> torch.Tensor:
@@ -237,6 +246,7 @@ class G1Env(VecEnv):
         self.episode_length_buf += 1
         self.pushes.track(self.robot)
         self._after_physics()
+        self.heading_error = wrap_angle(self.heading_error + self.yaw_change() - self.commands[:, 2] * self.dt)
 
         reward_groups = self.rewards.compute(self)
         reward_groups.masked_fill_(unstable.unsqueeze(-1), 0.0)  # diverged physics earns nothing; reset and counted
@@ -313,7 +323,7 @@ class G1Env(VecEnv):
         step = feet.step_vector  # [N, foot, (forward, lateral)], 0 where no touchdown
         air_time_histogram = feet.air_time_histogram()  # [N, foot, bins]
         settled = (self.episode_length_buf * self.dt > GAIT_SETTLE_S).float()  # [N]
-        yaw_change = torch.remainder(self.robot.yaw - self.previous_yaw + math.pi, 2 * math.pi) - math.pi
+        yaw_change = self.yaw_change()
         return {
             "stride_sum": feet.stride.sum(-1),
             "touchdowns": feet.first_contact.float().sum(-1),
@@ -335,6 +345,10 @@ class G1Env(VecEnv):
             "com_deviation_sum": torch.where(closing, self.pushes.max_com_deviation, 0.0),
             "pushes": closing.float(),
         }
+
+    def yaw_change(self) -> torch.Tensor:
+        """[N] the base's turn (rad) since the last step's metrics were recorded."""
+        return wrap_angle(self.robot.yaw - self.previous_yaw)
 
     def record_step_metrics(self) -> None:
         """Add this step's quantities to the episode sums; the yaw they were turned from moves on."""

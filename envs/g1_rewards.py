@@ -19,6 +19,14 @@ def track_ang_vel_z(env, std: float) -> torch.Tensor:
     return torch.exp(-((env.commands[:, 2] - env.robot.base_ang_vel[:, 2]) ** 2) / std**2)
 
 
+def heading_hold(env, std: float) -> torch.Tensor:
+    """exp(-e^2 / std^2) of the heading error e: the base's yaw against the yaw its yaw-rate commands integrate to
+    since the command was set. A tracking kernel on the yaw rate itself barely sees a bias of a few degrees per
+    second under the gait's own yaw oscillation; the heading error integrates that bias, so walking straight when
+    told to (and turning by as much as told) pays."""
+    return torch.exp(-(env.heading_error**2) / std**2)
+
+
 def flat_orientation(env) -> torch.Tensor:
     """||g_xy||^2 of gravity in the base frame: 0 when upright."""
     return (env.robot.projected_gravity[:, :2] ** 2).sum(-1)

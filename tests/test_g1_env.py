@@ -474,6 +474,31 @@ def test_per_foot_gait_heading_and_steering_metrics_of_a_scripted_limping_turn()
     assert m["lateral_drift"] == pytest.approx(0.8, abs=1e-6)
 
 
+def test_heading_error_is_the_turn_against_the_commanded_turn_since_the_command():
+    """Told to turn at 0.5 rad/s, a robot standing still for 20 steps (0.4 s) is 0.2 rad short of its commanded
+    heading, plus whatever it turned by itself, read here from the pelvis quaternion; a new command starts over."""
+    from pchc_rsl.envs import g1_rewards
+
+    env = make_walk_env(num_envs=2, command_resample_s=None)
+    def yaw():
+        w, x, y, z = env.physics.qpos[:, 3:7].double().unbind(-1)
+        return torch.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+
+    env.reset()
+    env.commands[:] = torch.tensor([0.0, 0.0, 0.5])
+    start = yaw()
+    for _ in range(20):
+        env.step(torch.zeros(2, env.num_actions))
+    expected = torch.remainder(yaw() - start - 0.5 * 20 * env.dt + math.pi, 2 * math.pi) - math.pi
+    torch.testing.assert_close(env.heading_error.double(), expected, atol=1e-4, rtol=0)
+    assert env.heading_error.abs().min() > 0.15
+    torch.testing.assert_close(g1_rewards.heading_hold(env, std=0.3), torch.exp(-env.heading_error**2 / 0.09))
+    env.cfg.command_resample_s = (0.02, 0.02)
+    env.command_countdown[:] = 1
+    env._resample_due_commands()
+    assert (env.heading_error == 0).all()
+
+
 def test_commands_are_resampled_within_an_episode_with_standing_and_straight_shares():
     """command_resample_s draws a new command every 1-2 s (50-100 steps); over 400 steps of 256 envs each env gets
     4-8 commands, about 20% of them all zero and 25% of the rest with no yaw rate."""
