@@ -222,8 +222,9 @@ def markdown_section(study: dict) -> str:
         "exp as a ratio (above 1: PCI larger).",
         "",
         f"**{study['finished_runs']} of {2 * planned} runs finished, {pairs} of {planned} pairs.**"
-        + ("" if pairs == planned else " The intervals below are provisional: the study is not complete, and with "
-               "so few pairs they are wide."),
+        + ("" if pairs == planned else " No interval yet: an interval needs two pairs." if pairs < 2 else
+           f" The intervals below are provisional: {pairs} of the {planned} planned pairs, so they are wider than "
+           "the finished study's will be."),
         "",
         "| measure | at | paired log-ratio PCI / gated [95% CI]; ratio [95% CI] | what it allows |",
         "|---|---|---|---|",
@@ -251,7 +252,8 @@ def markdown_section(study: dict) -> str:
         f"Reproduce or continue the whole study (resumable; RUNS is the run folder): `{study['commands']['study']}`, "
         f"then `{study['commands']['report']}`. One cell, e.g. pci seed 0: "
         f"`{study['commands']['cells']['pci/seed0']}`; gated seed 0: `{study['commands']['cells']['gated/seed0']}` "
-        "(other seeds: change `--seed` and the folder; every cell's command is in the JSON).",
+        "(other seeds: change `--seed` and the folder; every cell's command is in the JSON). All at one thread "
+        "(`OMP_NUM_THREADS=1`).",
     ]
     return "\n".join(lines) + "\n"
 
@@ -283,7 +285,8 @@ def plot(study: dict, path: str) -> None:
         ax.axvspan(FINAL_WINDOW[0] - EVAL_EVERY / 4, FINAL_WINDOW[-1] + EVAL_EVERY / 4, color="0.9", zorder=0)
         ax.set_xlabel("env steps")
         ax.set_ylabel(measure.replace("_", " "))
-        ax.legend(fontsize=7)
+        if study["runs"]:
+            ax.legend(fontsize=7)
     ax = axes[2]
     a = study["paired_log_ratio_pci_over_gated"]
     for k, key in enumerate(["final/hypervolume", "final/expected_utility", "1M/hypervolume", "1M/expected_utility"]):
