@@ -190,8 +190,10 @@ class MultiCriticPPO(PPO):
         its share of the samples, which is what it trains on. Mixture actors only (those with ``expert_weights``)."""
         if not hasattr(self.actor, "expert_weights"):
             return
-        with torch.no_grad():
-            mass = self.actor.expert_weights(self.storage.observations.flatten(0, 1)).mean(dim=0)
+        states = self.storage.observations.flatten(0, 1)  # views, no copy
+        with torch.no_grad():  # in chunks: a G1 rollout is ~10^5 states
+            mass = sum(self.actor.expert_weights(states[i : i + 16384]).sum(dim=0)
+                       for i in range(0, states.shape[0], 16384)) / states.shape[0]
         for j, value in enumerate(mass.tolist()):
             self.return_stats[f"routing_mass/expert_{j}"] = value
 

@@ -313,6 +313,11 @@ class PCIActor(_MixtureActor):
             positions = simplex_lattice(m, lattice_resolution)
         self.mlp = PCIHead(positions, alpha0, beta0, routing_scale, **self.head_kwargs)
 
+    def expert_weights(self, obs: TensorDict) -> torch.Tensor:
+        """[N, E]: PCI's weights depend on lambda alone, so the observation is not encoded."""
+        head = self.mlp
+        return routing_weights(obs[self.preference_group], head.positions, head.alpha0, head.beta0, head.scale)
+
 
 class GatedMoEActor(_MixtureActor):
     """The "w/o PCI" ablation: the PCI actor's experts routed by a learned gate instead of the Beta density."""
