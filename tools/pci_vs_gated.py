@@ -245,6 +245,8 @@ def markdown_section(study: dict) -> str:
                      + f" | {mass} | {cpu} |")
     lines += [
         "",
+        f"![PCI against the matched gate on {TASK}](pci_vs_gated.png)",
+        "",
         f"Core-hours spent on the finished runs: {study['core_hours']:.2f}. Data: `pci_vs_gated.json` (every "
         "evaluation of every run, the intervals, the commands); figure: `pci_vs_gated.png` (each run's measures "
         "against env steps, and each pair's log-ratio with the interval).",
