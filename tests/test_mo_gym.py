@@ -200,3 +200,30 @@ def gated_counts(task, matched_gate):
                                           {"actor": cfg.runner.obs_groups["actor"]}, env.num_actions)
     env.close()
     return counts["pci"], counts["gated"], counts["expert_hidden_dims"]
+
+
+@pytest.mark.slow
+def test_an_interrupted_benchmark_resumes_and_redoes_a_lost_evaluation_exactly(tmp_path):
+    """Run 3 updates evaluated after updates 2 and 3; then lose everything after update 2's checkpoint, as a run
+    stopped during its evaluation would, and resume: the lost evaluation is redone from the checkpoint."""
+    benchmark = load_tool("mo_benchmark")
+    argv = ["--task", HOPPER, "--variant", "pci", "--steps", "1536", "--num-envs", "4", "--preferences", "3",
+            "--episodes", "1", "--eval-every", "600", "--out", str(tmp_path)]
+    benchmark.main(argv)
+    first = json.loads((tmp_path / "result.json").read_text())
+    for name in ["result.json", "progress.json", "train/model_2.pt", "train/model_final.pt"]:
+        (tmp_path / name).unlink()
+    benchmark.main([*argv, "--resume"])
+    resumed = json.loads((tmp_path / "result.json").read_text())
+    assert [h["env_steps"] for h in resumed["history"]] == [1024, 1536]
+    assert resumed["history"][0] == first["history"][0]  # same checkpoint, same seeded episodes
+    assert resumed["resumed"] == 1 and resumed["cpu_seconds_complete"] is False
+    assert resumed["routing_mass"]["iterations"] == [0, 1, 2]
+    assert (tmp_path / "train_resumed1" / "model_2.pt").is_file()  # the continued training's own folder
+    assert benchmark.main([*argv, "--resume"])["history"] == resumed["history"]  # finished: left as it is
+    # stopped after its last checkpoint and evaluation: nothing is trained or evaluated again
+    (tmp_path / "result.json").unlink()
+    (tmp_path / "train_resumed1" / "model_final.pt").unlink()
+    again = benchmark.main([*argv, "--resume"])
+    assert again["history"] == resumed["history"] and again["resumed"] == 2
+    assert not list((tmp_path / "train_resumed2").glob("model_[0-9]*.pt"))

@@ -35,14 +35,14 @@ def fake_result(variant, seed, hv_scale, eu_scale):
     history = [{"env_steps": it * 2048, "hypervolume": hv_scale * k, "expected_utility": eu_scale * k,
                 "mean_returns": [[0.0, 0.0]]} for k, it in enumerate(iterations, start=1)]
     return {"variant": variant, "seed": seed, "env_steps": iterations[-1] * 2048, "history": history,
-            "routing_mass": {"iterations": list(range(20)), "per_expert": [[0.2] * 20] * 5}}
+            "routing_mass": {"iterations": list(range(20)), "per_expert": [[0.2] * 20] * 5},
+            "cpu_seconds_complete": True}
 
 
 def write_run(root, result, cpu_seconds):
     folder = root / pci_vs_gated.TASK / f"{result['variant']}_seed{result['seed']}"
     folder.mkdir(parents=True)
-    (folder / "result.json").write_text(json.dumps(result))
-    (folder / "cpu_time.json").write_text(json.dumps({"cpu_seconds": cpu_seconds}))
+    (folder / "result.json").write_text(json.dumps({**result, "cpu_seconds": cpu_seconds}))
 
 
 def test_report_pairs_the_seeds_and_averages_the_last_three_evaluations(tmp_path):

@@ -24,6 +24,7 @@ import copy
 import json
 import math
 import os
+import re
 import time
 
 import numpy as np
@@ -130,19 +131,43 @@ def history_entry(result: dict, env_steps: int) -> dict:
             "mean_returns": [r["mean_return"] for r in result["rows"]]}
 
 
-def routing_mass_per_rollout(log_dir: str) -> dict | None:
-    """{"iterations": [...], "per_expert": [[mass of expert j at each iteration] for j]} from the training's
-    TensorBoard log (MultiCriticPPO logs it for mixture actors); None when it holds no routing mass."""
+def train_folders(out: str) -> list[str]:
+    """A run's training folders in the order they were written: train, then train_resumed1, 2, ... (a resumed run
+    trains into a new folder, as pchc-train --resume does)."""
+    resumed = sorted((int(m.group(1)), name) for name in (os.listdir(out) if os.path.isdir(out) else [])
+                     if (m := re.fullmatch(r"train_resumed(\d+)", name)))
+    return [os.path.join(out, "train")] + [os.path.join(out, name) for _, name in resumed]
+
+
+def checkpoints(out: str) -> dict[int, str]:
+    """iteration -> the newest model_<iteration>.pt among the run's training folders."""
+    found = {}
+    for folder in train_folders(out):
+        for name in os.listdir(folder) if os.path.isdir(folder) else []:
+            if m := re.fullmatch(r"model_(\d+)\.pt", name):
+                found[int(m.group(1))] = os.path.join(folder, name)
+    return found
+
+
+def routing_mass_per_rollout(out: str) -> dict | None:
+    """{"iterations": [...], "per_expert": [[mass of expert j at each iteration] for j]} from the run's TensorBoard
+    logs (MultiCriticPPO logs it for mixture actors); an iteration a resumed run trained again counts as last
+    trained. None when the logs hold no routing mass."""
     from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 
-    events = EventAccumulator(log_dir, size_guidance={"scalars": 0})
-    events.Reload()
-    tags = sorted((t for t in events.Tags().get("scalars", []) if t.startswith("Routing/expert_")),
-                  key=lambda t: int(t.rsplit("_", 1)[1]))
-    if not tags:
+    latest: dict[str, dict[int, float]] = {}
+    for folder in train_folders(out):
+        if not os.path.isdir(folder):
+            continue
+        events = EventAccumulator(folder, size_guidance={"scalars": 0})
+        events.Reload()
+        for tag in (t for t in events.Tags().get("scalars", []) if t.startswith("Routing/expert_")):
+            latest.setdefault(tag, {}).update({e.step: e.value for e in events.Scalars(tag)})
+    if not latest:
         return None
-    series = [events.Scalars(t) for t in tags]
-    return {"iterations": [e.step for e in series[0]], "per_expert": [[e.value for e in s] for s in series]}
+    tags = sorted(latest, key=lambda t: int(t.rsplit("_", 1)[1]))
+    iterations = sorted(latest[tags[0]])
+    return {"iterations": iterations, "per_expert": [[latest[t][i] for i in iterations] for t in tags]}
 
 
 def matched_actor(cfg):
@@ -155,6 +180,44 @@ def matched_actor(cfg):
     pci = copy.deepcopy(task_config(cfg.name).runner.actor)
     select_actor(pci, "pci")
     return matched_gate(pci, obs, {"actor": cfg.runner.obs_groups["actor"]}, env.num_actions)
+
+
+def resume(runner, saved: dict[int, str], progress_path: str, grid: list[int], steps_per_iteration: int, evaluate,
+           fresh: dict) -> dict:
+    """Continue an interrupted run from its newest checkpoint (model_<it>.pt, which rsl-rl writes after every
+    evaluation chunk and every save_interval iterations), with its random streams.
+
+    The evaluations already done come from progress.json; any missing (a run started without it) are redone from the
+    checkpoint at that grid point, which gives the same numbers (deterministic policy, seeded episodes). The
+    environments start new episodes, so a resumed run matches an uninterrupted one in distribution, not bit for bit.
+    Its wall and CPU times cover the sessions that wrote progress.json (``cpu_seconds_complete`` says whether that
+    is all of them).
+    """
+    progress = fresh
+    if os.path.isfile(progress_path):
+        with open(progress_path) as f:
+            progress = json.load(f)
+    if not saved:
+        return progress
+    newest = max(saved)
+    done = min(newest + 1, grid[-1])
+    history = {h["env_steps"]: h for h in progress["history"] if h["env_steps"] <= done * steps_per_iteration}
+    for g in (g for g in grid if g <= done and g * steps_per_iteration not in history):
+        if g - 1 not in saved:
+            raise SystemExit(f"Cannot resume: the evaluation after iteration {g - 1} is not in {progress_path} and "
+                             f"model_{g - 1}.pt is missing; start the run afresh.")
+        runner.load(saved[g - 1])
+        result = evaluate(runner.get_inference_policy())
+        history[g * steps_per_iteration] = history_entry(result, g * steps_per_iteration)
+        progress["last_result"] = result
+        progress["cpu_seconds_complete"] = False  # the interrupted session's time is not known
+    runner.load(saved[newest], resume=True)
+    progress["history"] = [history[k] for k in sorted(history)]
+    progress["done"] = done
+    progress["resumed"] += 1
+    print(f"resuming {saved[newest]} (after iteration {newest}): {len(history)} evaluations kept or redone",
+          flush=True)
+    return progress
 
 
 def write_json_atomically(path: str, data) -> None:
@@ -217,6 +280,9 @@ def build_parser() -> argparse.ArgumentParser:
                         help="also evaluate the front after every this many env steps (0: only at the end)")
     parser.add_argument("--eval-seed", type=int, default=10_000)
     parser.add_argument("--out", help="output folder (default: logs/mo_benchmark/TASK/VARIANT_seedS)")
+    parser.add_argument("--resume", action="store_true",
+                        help="continue an interrupted run in --out from its newest checkpoint (a finished one is left "
+                             "as it is; an empty folder starts afresh)")
     return parser
 
 
@@ -258,31 +324,52 @@ def main(argv: list[str] | None = None) -> dict:
         result = evaluate_front(policy, cfg.env, preferences, args.episodes, args.eval_seed, REFERENCE_POINTS[args.task])
         return with_expected_utility(result, OBJECTIVE_RANGES[args.task])
 
-    runner = make_runner(cfg, os.path.join(out, "train"))
+    if args.resume and os.path.isfile(os.path.join(out, "result.json")):
+        print(f"{out} is finished (result.json); nothing to resume")
+        with open(os.path.join(out, "result.json")) as f:
+            return json.load(f)
+    saved = checkpoints(out) if args.resume else {}
+    train_dir = os.path.join(out, f"train_resumed{len(train_folders(out))}" if saved else "train")
+    runner = make_runner(cfg, train_dir)
     if parameters is None:
         parameters = {"actor": sum(p.numel() for p in runner.alg.actor.parameters())}
-    train_time, eval_time, done, history = 0.0, 0.0, 0, []
-    for target in evaluation_iterations(iterations, steps_per_iteration, args.eval_every):
+    grid = evaluation_iterations(iterations, steps_per_iteration, args.eval_every)
+    cpu_start = time.process_time()
+    progress = {"done": 0, "history": [], "last_result": None, "train_wall_time_s": 0.0, "eval_wall_time_s": 0.0,
+                "cpu_seconds": 0.0, "cpu_seconds_complete": True, "resumed": 0}
+    if args.resume:
+        progress = resume(runner, saved, os.path.join(out, "progress.json"), grid, steps_per_iteration, evaluate,
+                          progress)
+    for target in [g for g in grid if g > progress["done"]]:
         start = time.perf_counter()
-        runner.current_learning_iteration = done  # rsl-rl leaves it at the last iteration run; continue after it
-        runner.learn(target - done)
-        train_time += time.perf_counter() - start
-        done = target
+        runner.current_learning_iteration = progress["done"]  # rsl-rl leaves it at the last iteration run
+        runner.learn(target - progress["done"])
+        progress["train_wall_time_s"] += time.perf_counter() - start
+        progress["done"] = target
         start = time.perf_counter()
         result = evaluate(runner.get_inference_policy())
-        eval_time += time.perf_counter() - start
-        history.append(history_entry(result, done * steps_per_iteration))
-    runner.save(os.path.join(out, "train", "model_final.pt"))
+        progress["eval_wall_time_s"] += time.perf_counter() - start
+        progress["history"].append(history_entry(result, target * steps_per_iteration))
+        progress["last_result"] = result
+        progress["cpu_seconds"] += time.process_time() - cpu_start
+        cpu_start = time.process_time()
+        write_json_atomically(os.path.join(out, "progress.json"), progress)
+    if not any(os.path.isfile(os.path.join(folder, "model_final.pt")) for folder in train_folders(out)):
+        runner.save(os.path.join(train_dir, "model_final.pt"))
     trained_steps = iterations * steps_per_iteration
+    result = progress["last_result"]
+    train_time, eval_time = progress["train_wall_time_s"], progress["eval_wall_time_s"]
 
     result.update(task=args.task, variant=args.variant, seed=args.seed, env_steps=trained_steps,
-                  train_wall_time_s=train_time, steps_per_second=trained_steps / train_time,
+                  train_wall_time_s=train_time, steps_per_second=trained_steps / max(train_time, 1e-9),
                   eval_wall_time_s=eval_time, num_episodes=args.episodes, preferences=[list(p) for p in preferences],
-                  history=history, fixed_preference=cfg.fixed_preference,
+                  history=progress["history"], resumed=progress["resumed"],
+                  cpu_seconds=progress["cpu_seconds"] + time.process_time() - cpu_start,
+                  cpu_seconds_complete=progress["cpu_seconds_complete"], fixed_preference=cfg.fixed_preference,
                   routing_scale=cfg.runner.actor.kwargs.get("routing_scale"), parameters=parameters,
                   expert_hidden_dims=list(cfg.runner.actor.hidden_dims),
                   preference_concentration=cfg.env.preference_concentration,
-                  routing_mass=routing_mass_per_rollout(os.path.join(out, "train")))
+                  routing_mass=routing_mass_per_rollout(out))
     write_json_atomically(os.path.join(out, "result.json"), result)
     plot_front(result, cfg.env.objective_names, os.path.join(out, "pareto.png"))
     print(f"{args.task} {args.variant} seed {args.seed}: {trained_steps} steps in {train_time:.0f} s "

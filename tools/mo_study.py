@@ -93,12 +93,12 @@ def study_cells(seeds: list[int], steps: int) -> list[Cell]:
     return cells
 
 
-def claim_cell(folder: str) -> bool:
+def claim_cell(folder: str, restart: bool = True) -> bool:
     """Take the cell for this process: False when it is finished or a live worker holds it.
 
     The claim is ``<folder>.claim`` holding the worker's pid, linked into place whole (so two workers cannot both
     win, and no one reads it half-written); a claim whose pid is gone is a worker that was stopped, and its
-    half-written folder is cleared.
+    half-written folder is cleared, unless ``restart`` is False (the run resumes from what it left).
     """
     claim = folder + ".claim"
     os.makedirs(os.path.dirname(folder), exist_ok=True)
@@ -114,9 +114,9 @@ def claim_cell(folder: str) -> bool:
                     return False
                 os.remove(claim)  # a stopped worker's claim
                 continue
-            if os.path.isdir(folder):  # interrupted before its result.json: start again from scratch
+            if restart and os.path.isdir(folder):  # interrupted before its result.json: start again from scratch
                 shutil.rmtree(folder)
-            os.makedirs(folder)
+            os.makedirs(folder, exist_ok=True)
             return True
         return False
     finally:

@@ -11,8 +11,8 @@ preferences). A single evaluation is noisy, so each run's figure is the mean of 
 gated) over the pairs gets a 95% Student-t interval. The 1M evaluation of the same runs is reported beside it.
 
 Cells run seed by seed, PCI then gated, so a partial study is paired. They use tools/mo_study.py's claims: a finished
-cell (its result.json, written atomically at its end) is skipped, an interrupted one is rerun from scratch, and
-several workers may share the study. The report writes ``pci_vs_gated.json`` (one row per run with its evaluations,
+cell (its result.json, written atomically at its end) is skipped, an interrupted one resumes from its newest
+checkpoint (tools/mo_benchmark.py --resume), and several workers may share the study. The report writes ``pci_vs_gated.json`` (one row per run with its evaluations,
 then the intervals), ``pci_vs_gated.png``, and the study's section of ``mo_study.md``.
 """
 
@@ -23,7 +23,6 @@ import json
 import math
 import os
 import re
-import resource
 import subprocess
 import sys
 import time
@@ -64,24 +63,20 @@ def cell_command(cell: Cell, root: str) -> list[str]:
 
 
 def run_cell(cell: Cell, root: str) -> None:
-    """Train and evaluate one cell unless it is finished or claimed; record the CPU time it took (cpu_time.json)."""
+    """Train and evaluate one cell unless it is finished or claimed; an interrupted cell resumes."""
     folder = cell.folder(root)
-    if not claim_cell(folder):
+    if not claim_cell(folder, restart=False):
         return
-    start, cpu_before = time.time(), resource.getrusage(resource.RUSAGE_CHILDREN)
+    start = time.time()
     try:
-        with open(os.path.join(folder, "log.txt"), "w") as log:
-            code = subprocess.call(cell_command(cell, root), stdout=log, stderr=subprocess.STDOUT)
-        cpu_after = resource.getrusage(resource.RUSAGE_CHILDREN)
-        cpu = (cpu_after.ru_utime - cpu_before.ru_utime) + (cpu_after.ru_stime - cpu_before.ru_stime)
-        write_json_atomically(os.path.join(folder, "cpu_time.json"),
-                              {"cpu_seconds": cpu, "wall_seconds": time.time() - start, "exit_code": code})
+        with open(os.path.join(folder, "log.txt"), "a") as log:
+            code = subprocess.call([*cell_command(cell, root), "--resume"], stdout=log, stderr=subprocess.STDOUT)
     finally:
         if os.path.exists(folder + ".claim"):
             os.remove(folder + ".claim")
     status = "done" if code == 0 else f"FAILED (exit {code}, see {folder}/log.txt)"
-    print(f"[{time.strftime('%H:%M:%S')}] {cell.name} seed {cell.seed}: {status} in {time.time() - start:.0f} s "
-          f"({cpu / 3600:.2f} core-hours)", flush=True)
+    print(f"[{time.strftime('%H:%M:%S')}] {cell.name} seed {cell.seed}: {status} in {time.time() - start:.0f} s",
+          flush=True)
 
 
 def grid_point(env_steps: int) -> int:
@@ -89,7 +84,7 @@ def grid_point(env_steps: int) -> int:
     return env_steps // EVAL_EVERY * EVAL_EVERY
 
 
-def run_row(result: dict, cpu_seconds: float | None = None) -> dict:
+def run_row(result: dict) -> dict:
     """One run of the JSON: variant, seed, env steps, and each evaluation's env steps and measures."""
     mass = result.get("routing_mass")
     last_tenth = None
@@ -102,7 +97,8 @@ def run_row(result: dict, cpu_seconds: float | None = None) -> dict:
                          "hypervolume": h["hypervolume"], "expected_utility": h["expected_utility"]}
                         for h in result["history"]],
         "parameters": result.get("parameters"), "expert_hidden_dims": result.get("expert_hidden_dims"),
-        "routing_mass_last_tenth": last_tenth, "cpu_seconds": cpu_seconds,
+        "routing_mass_last_tenth": last_tenth, "cpu_seconds": result.get("cpu_seconds"),
+        "cpu_seconds_complete": result.get("cpu_seconds_complete", False), "resumed": result.get("resumed", 0),
     }
 
 
@@ -154,9 +150,7 @@ def load_rows(root: str, seeds: list[int]) -> list[dict]:
         if os.path.isfile(path):
             with open(path) as f:
                 result = json.load(f)
-            cpu_path = os.path.join(cell.folder(root), "cpu_time.json")
-            cpu = json.load(open(cpu_path))["cpu_seconds"] if os.path.isfile(cpu_path) else None
-            rows.append(run_row(result, cpu))
+            rows.append(run_row(result))
     return rows
 
 
@@ -178,6 +172,7 @@ def study_json(rows: list[dict], seeds: list[int]) -> dict:
         "variants": {"pci": f"PCI actor, routing scale {ROUTING_SCALE:g}",
                      "gated": "learned-gate mixture, PCI's expert count, parameter count matched"},
         "planned_seeds": seeds, "finished_runs": len(rows), "core_hours": sum(cpu) / 3600,
+        "core_hours_complete": all(r["cpu_seconds_complete"] for r in rows),
         "runs": rows, "paired_log_ratio_pci_over_gated": analysis(rows), "commands": commands(seeds),
     }
 
@@ -240,14 +235,17 @@ def markdown_section(study: dict) -> str:
         figures = [run_figure(row, m, g) for g in (FINAL_WINDOW, (MIDPOINT,)) for m in MEASURES]
         shown = [f"{v:.4g}" if v is not None else "-" for v in figures]
         mass = ", ".join(f"{v:.2f}" for v in row["routing_mass_last_tenth"]) if row["routing_mass_last_tenth"] else "-"
-        cpu = f"{row['cpu_seconds'] / 3600:.2f}" if row["cpu_seconds"] is not None else "-"
+        cpu = "-" if row["cpu_seconds"] is None else (("" if row["cpu_seconds_complete"] else "at least ")
+                                                       + f"{row['cpu_seconds'] / 3600:.2f}")
         lines.append(f"| {row['variant']} | {row['seed']} | {row['env_steps']:,} | " + " | ".join(shown)
                      + f" | {mass} | {cpu} |")
     lines += [
         "",
         f"![PCI against the matched gate on {TASK}](pci_vs_gated.png)",
         "",
-        f"Core-hours spent on the finished runs: {study['core_hours']:.2f}. Data: `pci_vs_gated.json` (every "
+        f"Core-hours spent on the finished runs: {'' if study['core_hours_complete'] else 'at least '}"
+        f"{study['core_hours']:.2f} (CPU time; a run resumed from a session that was not timed counts only its "
+        "timed sessions). Data: `pci_vs_gated.json` (every "
         "evaluation of every run, the intervals, the commands); figure: `pci_vs_gated.png` (each run's measures "
         "against env steps, and each pair's log-ratio with the interval).",
         "",
