@@ -52,6 +52,9 @@ def test_report_pairs_the_seeds_and_averages_the_last_three_evaluations(tmp_path
     write_run(tmp_path, fake_result("pci", 1, 1.0, 1.0), 3600)
     write_run(tmp_path, fake_result("gated", 1, 2.0, 1.0), 3600)
     write_run(tmp_path, fake_result("pci", 2, 1.0, 1.0), 3600)
+    started = tmp_path / pci_vs_gated.TASK / "gated_seed2" / "train"
+    started.mkdir(parents=True)
+    (started / "model_99.pt").write_bytes(b"")
     docs = tmp_path / "docs"
     docs.mkdir()
     (docs / "mo_study.md").write_text("# MO-Gymnasium study\n\nearlier sections\n")
@@ -77,6 +80,7 @@ def test_report_pairs_the_seeds_and_averages_the_last_three_evaluations(tmp_path
     page = (docs / "mo_study.md").read_text()
     assert page.startswith("# MO-Gymnasium study\n\nearlier sections\n")
     assert "**5 of 6 runs finished, 2 of 3 pairs.** The intervals below are provisional: 2 of the 3" in page
+    assert "not finished (they resume from their checkpoints): gated seed 2 (204,800 env steps checkpointed)." in page
     # writing the report again replaces the section instead of adding a second one
     pci_vs_gated.write_report(str(tmp_path), [0, 1, 2], str(docs))
     assert (docs / "mo_study.md").read_text() == page

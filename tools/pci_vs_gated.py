@@ -31,7 +31,7 @@ import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
-from mo_benchmark import OBJECTIVE_RANGES, REFERENCE_POINTS, write_json_atomically  # noqa: E402
+from mo_benchmark import OBJECTIVE_RANGES, REFERENCE_POINTS, checkpoints, write_json_atomically  # noqa: E402
 from mo_study import Cell, claim_cell  # noqa: E402
 
 TASK = "mo-halfcheetah-v5"
@@ -154,6 +154,18 @@ def load_rows(root: str, seeds: list[int]) -> list[dict]:
     return rows
 
 
+def unfinished_runs(root: str, seeds: list[int]) -> list[dict]:
+    """Started cells without a result: how far their newest checkpoint got (where a resumed run continues)."""
+    runs = []
+    for cell in study_cells(seeds):
+        folder = cell.folder(root)
+        if os.path.isdir(folder) and not os.path.isfile(os.path.join(folder, "result.json")):
+            saved = checkpoints(folder)
+            steps = (max(saved) + 1) * 2048 if saved else 0  # 16 envs x 128 steps per update
+            runs.append({"variant": cell.name, "seed": cell.seed, "env_steps_checkpointed": steps})
+    return runs
+
+
 def commands(seeds: list[int]) -> dict:
     """The command that reproduces each cell, and the one that runs (or continues) the whole study."""
     cells = {f"{c.name}/seed{c.seed}": " ".join(["python tools/mo_benchmark.py", "--task", c.task, "--seed",
@@ -163,7 +175,7 @@ def commands(seeds: list[int]) -> dict:
             "--report-only --docs docs/results", "cells": cells}
 
 
-def study_json(rows: list[dict], seeds: list[int]) -> dict:
+def study_json(rows: list[dict], seeds: list[int], unfinished: list[dict] | None = None) -> dict:
     cpu = [r["cpu_seconds"] for r in rows if r["cpu_seconds"] is not None]
     return {
         "task": TASK, "steps": STEPS, "eval_every": EVAL_EVERY, "final_window": list(FINAL_WINDOW),
@@ -173,7 +185,8 @@ def study_json(rows: list[dict], seeds: list[int]) -> dict:
                      "gated": "learned-gate mixture, PCI's expert count, parameter count matched"},
         "planned_seeds": seeds, "finished_runs": len(rows), "core_hours": sum(cpu) / 3600,
         "core_hours_complete": all(r["cpu_seconds_complete"] for r in rows),
-        "runs": rows, "paired_log_ratio_pci_over_gated": analysis(rows), "commands": commands(seeds),
+        "runs": rows, "unfinished_runs": unfinished or [],
+        "paired_log_ratio_pci_over_gated": analysis(rows), "commands": commands(seeds),
     }
 
 
@@ -221,6 +234,9 @@ def markdown_section(study: dict) -> str:
            f" The intervals below are provisional: {pairs} of the {planned} planned pairs, so they are wider than "
            "the finished study's will be."),
         "",
+        *([f"Started and not finished (they resume from their checkpoints): "
+           + ", ".join(f"{u['variant']} seed {u['seed']} ({u['env_steps_checkpointed']:,} env steps checkpointed)"
+                       for u in study["unfinished_runs"]) + ".", ""] if study["unfinished_runs"] else []),
         "| measure | at | paired log-ratio PCI / gated [95% CI]; ratio [95% CI] | what it allows |",
         "|---|---|---|---|",
     ]
@@ -305,7 +321,7 @@ def plot(study: dict, path: str) -> None:
 
 
 def write_report(root: str, seeds: list[int], docs: str | None) -> dict:
-    study = study_json(load_rows(root, seeds), seeds)
+    study = study_json(load_rows(root, seeds), seeds, unfinished_runs(root, seeds))
     for folder in [root] + ([docs] if docs else []):
         os.makedirs(folder, exist_ok=True)
         write_json_atomically(os.path.join(folder, "pci_vs_gated.json"), study)
