@@ -340,6 +340,7 @@ def main(argv: list[str] | None = None) -> dict:
     if args.resume:
         progress = resume(runner, saved, os.path.join(out, "progress.json"), grid, steps_per_iteration, evaluate,
                           progress)
+        write_json_atomically(os.path.join(out, "progress.json"), progress)  # keep any evaluations it redid
     for target in [g for g in grid if g > progress["done"]]:
         start = time.perf_counter()
         runner.current_learning_iteration = progress["done"]  # rsl-rl leaves it at the last iteration run
