@@ -255,7 +255,7 @@ def markdown_report(results: dict, seeds: list[int], steps: int, total_cells: in
         "# MO-Gymnasium study",
         "",
         f"**{finished} of {total_cells} cells finished**" + ("" if finished == total_cells else
-                                                               " (the study is still running; n per row below)."),
+                                                               " (the others are not run yet; n per row below)."),
         "",
         f"Reproduce: `python tools/mo_study.py --out RUNS --seeds {' '.join(map(str, seeds))} --steps {steps}` "
         "(resumable), then `--report-only --docs docs/results`.",
