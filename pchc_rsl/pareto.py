@@ -1,4 +1,4 @@
-"""Pareto-front metrics (maximisation throughout): non-dominated filter, hypervolume, sparsity."""
+"""Pareto-front metrics (maximisation throughout): non-dominated filter, hypervolume, sparsity, expected utility."""
 
 from __future__ import annotations
 
@@ -52,3 +52,21 @@ def sparsity(points: ArrayLike) -> float:
         return 0.0
     sorted_columns = np.sort(p, axis=0)
     return float(np.sum(np.diff(sorted_columns, axis=0) ** 2) / (n - 1))
+
+
+def expected_utility(returns: ArrayLike, preferences: ArrayLike, low: ArrayLike, high: ArrayLike) -> float:
+    """Mean over the preferences of lambda . normalised returns: how well the policy serves the preference it is given.
+
+    returns [P, m] are the policy's returns at preferences [P, m]; each objective j is normalised as
+    (R_j - low_j) / (high_j - low_j), with the task's fixed range (state it with every figure). Unlike the
+    hypervolume, every preference counts, not only the non-dominated points, and no single end of the front dominates.
+    """
+    r = _as_points(returns)
+    lam = np.asarray(preferences, dtype=np.float64)
+    lo, hi = np.asarray(low, dtype=np.float64), np.asarray(high, dtype=np.float64)
+    if lam.shape != r.shape:
+        raise ValueError(f"Need one preference per row of returns: returns {r.shape}, preferences {lam.shape}.")
+    if lo.shape != (r.shape[1],) or hi.shape != (r.shape[1],) or not (hi > lo).all():
+        raise ValueError(f"low and high must give each of the {r.shape[1]} objectives a range with high > low, "
+                         f"got low {lo.tolist()}, high {hi.tolist()}.")
+    return float(np.mean(np.sum(lam * (r - lo) / (hi - lo), axis=1)))

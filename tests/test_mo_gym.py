@@ -135,3 +135,95 @@ def test_three_objective_evaluation_covers_the_simplex_lattice():
     assert (points >= 0).all()
     for vertex in np.eye(3):
         assert np.abs(points - vertex).sum(1).min() < 1e-6
+
+
+def test_benchmark_evaluates_on_a_step_grid_and_keeps_each_evaluations_returns(tmp_path):
+    """4 envs x 128 steps = 512 per update; a 600-step grid lands after updates 2 and 3 (1024 and 1536 steps)."""
+    benchmark = load_tool("mo_benchmark")
+    benchmark.main(["--task", HOPPER, "--variant", "pci", "--steps", "1536", "--num-envs", "4", "--preferences", "3",
+                    "--episodes", "1", "--eval-every", "600", "--out", str(tmp_path)])
+    saved = json.loads((tmp_path / "result.json").read_text())
+    assert [h["env_steps"] for h in saved["history"]] == [1024, 1536]
+    low, high = np.array(benchmark.OBJECTIVE_RANGES[HOPPER])
+    preferences = np.array(saved["preferences"])
+    for evaluation in saved["history"]:
+        returns = np.array(evaluation["mean_returns"])
+        assert returns.shape == (3, 2)
+        by_hand = np.mean([lam @ ((r - low) / (high - low)) for lam, r in zip(preferences, returns)])
+        assert evaluation["expected_utility"] == pytest.approx(by_hand, rel=1e-9)
+    assert saved["history"][-1]["mean_returns"] == [row["mean_return"] for row in saved["rows"]]
+    mass = np.array(saved["routing_mass"]["per_expert"])  # [experts, rollouts]
+    assert mass.shape == (5, 3) and saved["routing_mass"]["iterations"] == [0, 1, 2]
+    np.testing.assert_allclose(mass.sum(0), 1.0, atol=1e-5)
+
+
+def test_evaluation_grid_is_in_env_steps_and_ends_at_the_last_update():
+    grid = load_tool("mo_benchmark").evaluation_iterations
+    # 2048 steps per update, 2M steps: 977 updates; 250k-step marks after updates 123, 245, ..., 977 (= the last)
+    iterations = grid(977, 2048, 250_000)
+    assert iterations[:2] == [123, 245] and iterations[-1] == 977 and len(iterations) == 8
+    assert all(it * 2048 >= k * 250_000 > (it - 1) * 2048 for k, it in enumerate(iterations, start=1))
+    assert grid(10, 2048, 0) == [10]
+
+
+def test_the_matched_gate_has_pcis_expert_count_and_parameter_count():
+    """The paper's ablation swaps the routing only: same number of experts, parameters as close as a whole expert
+    width allows (within 1.5% here: one unit of width is 400-900 parameters)."""
+    from pchc_rsl.configs import task_config
+
+    matched_gate = load_tool("matched_gate")
+    for task, experts in [("mo-halfcheetah-v5", 5), ("mo-hopper-v5", 6)]:
+        cfg = task_config(task)
+        env = MOGymVecEnv(cfg.env, 1, "cpu", 0)
+        obs, groups = env.get_observations(), {"actor": cfg.runner.obs_groups["actor"]}
+        pci = matched_gate.build_actor(cfg.runner.actor, obs, groups, env.num_actions)
+        gated_cfg, counts = matched_gate.matched_gate(cfg.runner.actor, obs, groups, env.num_actions)
+        gated = matched_gate.build_actor(gated_cfg, obs, groups, env.num_actions)
+        env.close()
+        assert type(gated).__name__ == "GatedMoEActor" and gated.mlp.experts.weights[0].shape[0] == experts
+        assert pci.mlp.positions.shape[0] == experts
+        n_pci, n_gated = (sum(p.numel() for p in m.parameters()) for m in (pci, gated))
+        assert (counts["pci"], counts["gated"]) == (n_pci, n_gated)
+        assert abs(n_gated - n_pci) / n_pci < 0.015
+    # mo-halfcheetah-v5 by hand: 17 observations + 2 preferences in, 6 action means out, 6 log-stds.
+    # PCI: 5 experts x (19*64 + 64 + 64*64 + 64 + 64*6 + 6) + 6 = 29,156.
+    # Gate with [62, 62] experts: 5 x (19*62 + 62 + 62*62 + 62 + 62*6 + 6) + gate (19*64 + 64 + 64*5 + 5) + 6 = 29,231.
+    assert gated_counts("mo-halfcheetah-v5", matched_gate) == (29_156, 29_231, [62, 62])
+
+
+def gated_counts(task, matched_gate):
+    from pchc_rsl.configs import task_config
+
+    cfg = task_config(task)
+    env = MOGymVecEnv(cfg.env, 1, "cpu", 0)
+    _, counts = matched_gate.matched_gate(cfg.runner.actor, env.get_observations(),
+                                          {"actor": cfg.runner.obs_groups["actor"]}, env.num_actions)
+    env.close()
+    return counts["pci"], counts["gated"], counts["expert_hidden_dims"]
+
+
+@pytest.mark.slow
+def test_an_interrupted_benchmark_resumes_and_redoes_a_lost_evaluation_exactly(tmp_path):
+    """Run 3 updates evaluated after updates 2 and 3; then lose everything after update 2's checkpoint, as a run
+    stopped during its evaluation would, and resume: the lost evaluation is redone from the checkpoint."""
+    benchmark = load_tool("mo_benchmark")
+    argv = ["--task", HOPPER, "--variant", "pci", "--steps", "1536", "--num-envs", "4", "--preferences", "3",
+            "--episodes", "1", "--eval-every", "600", "--out", str(tmp_path)]
+    benchmark.main(argv)
+    first = json.loads((tmp_path / "result.json").read_text())
+    for name in ["result.json", "progress.json", "train/model_2.pt", "train/model_final.pt"]:
+        (tmp_path / name).unlink()
+    benchmark.main([*argv, "--resume"])
+    resumed = json.loads((tmp_path / "result.json").read_text())
+    assert [h["env_steps"] for h in resumed["history"]] == [1024, 1536]
+    assert resumed["history"][0] == first["history"][0]  # same checkpoint, same seeded episodes
+    assert resumed["resumed"] == 1 and resumed["cpu_seconds_complete"] is False
+    assert resumed["routing_mass"]["iterations"] == [0, 1, 2]
+    assert (tmp_path / "train_resumed1" / "model_2.pt").is_file()  # the continued training's own folder
+    assert benchmark.main([*argv, "--resume"])["history"] == resumed["history"]  # finished: left as it is
+    # stopped after its last checkpoint and evaluation: nothing is trained or evaluated again
+    (tmp_path / "result.json").unlink()
+    (tmp_path / "train_resumed1" / "model_final.pt").unlink()
+    again = benchmark.main([*argv, "--resume"])
+    assert again["history"] == resumed["history"] and again["resumed"] == 2
+    assert not list((tmp_path / "train_resumed2").glob("model_[0-9]*.pt"))

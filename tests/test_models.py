@@ -96,3 +96,15 @@ def test_errors_name_the_problem():
         PCIActor(obs, {"actor": ["policy"]}, "actor", 3)
     with pytest.raises(ValueError, match="history_length"):
         PCIActor(obs, GROUPS, "actor", 3, history_length=4)
+
+
+def test_expert_weights_are_the_weights_the_actor_mixes_with():
+    obs = make_obs()
+    pci = PCIActor(obs, GROUPS, "actor", 3, hidden_dims=[16], history_length=HISTORY, routing_scale=4.0)
+    torch.testing.assert_close(pci.expert_weights(obs), routing_weights(obs["preference"], torch.linspace(0, 1, 5),
+                                                                        1.0, 1.0, 4.0))
+    gated = GatedMoEActor(obs, GROUPS, "actor", 3, hidden_dims=[16], history_length=HISTORY)
+    latent = gated.get_latent(obs)
+    expected = torch.softmax(gated.mlp.gate(gated.mlp.features(latent)), dim=-1)
+    torch.testing.assert_close(gated.expert_weights(obs), expected)
+    assert gated.expert_weights(obs).shape == (N, 5)

@@ -210,3 +210,19 @@ def test_silent_groups_are_decided_over_all_ranks(alg, monkeypatch):
     other.update(min=torch.zeros(3), max=torch.zeros(3), terminated=0.0)  # the other rank silent as well
     alg.group_min[:], alg.group_max[:] = torch.zeros(3), torch.zeros(3)
     assert alg.silent_groups().tolist() == [True, True, True]
+
+
+def test_each_experts_routing_mass_over_the_rollout_is_logged(alg):
+    """PCI's weights depend on lambda alone: the logged mass is the mean Beta routing weight of the stored preferences."""
+    from pchc_rsl.preference import routing_weights
+
+    gen = torch.Generator().manual_seed(3)
+    T, N, _ = alg.storage.rewards.shape
+    preference = torch.distributions.Dirichlet(torch.ones(2)).sample((T, N))
+    fill_storage(alg, gen, preference)
+    alg.compute_returns(alg.storage.observations[-1])
+    head = alg.actor.mlp
+    expected = routing_weights(preference.flatten(0, 1), torch.linspace(0, 1, 5), 1.0, 1.0, head.scale).mean(0)
+    logged = torch.tensor([alg.return_stats[f"routing_mass/expert_{j}"] for j in range(5)])
+    torch.testing.assert_close(logged, expected, atol=1e-5, rtol=1e-5)
+    assert f"routing_mass/expert_{5}" not in alg.return_stats

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from pchc_rsl.pareto import hypervolume, non_dominated, sparsity
+from pchc_rsl.pareto import expected_utility, hypervolume, non_dominated, sparsity
 
 
 def test_non_dominated_drops_dominated_and_duplicate_points():
@@ -38,3 +38,21 @@ def test_metrics_reject_bad_input():
         hypervolume([[1, 2]], ref=[0, 0, 0])
     with pytest.raises(ValueError, match="finite"):
         sparsity(np.array([[np.nan, 1.0], [1.0, 2.0]]))
+
+
+def test_expected_utility_by_hand():
+    # Ranges: objective 1 in [0, 10], objective 2 in [-100, 0]. Returns normalised:
+    # (5, -50) -> (0.5, 0.5); (10, -100) -> (1, 0); (0, 0) -> (0, 1).
+    # Utilities: (.5, .5).(0.5, 0.5) = 0.5; (1, 0).(1, 0) = 1; (.25, .75).(0, 1) = 0.75. Mean: 2.25 / 3 = 0.75.
+    returns = [[5, -50], [10, -100], [0, 0]]
+    preferences = [[0.5, 0.5], [1, 0], [0.25, 0.75]]
+    assert expected_utility(returns, preferences, low=[0, -100], high=[10, 0]) == pytest.approx(0.75)
+    # The policy that is best at the wrong end for each preference scores 0.
+    assert expected_utility([[0, -100], [10, -100]], [[1, 0], [0, 1]], [0, -100], [10, 0]) == 0.0
+
+
+def test_expected_utility_rejects_bad_ranges_and_shapes():
+    with pytest.raises(ValueError, match="high > low"):
+        expected_utility([[1, 2]], [[0.5, 0.5]], low=[0, 5], high=[1, 5])
+    with pytest.raises(ValueError, match="one preference per row"):
+        expected_utility([[1, 2], [3, 4]], [[0.5, 0.5]], low=[0, 0], high=[1, 1])

@@ -9,8 +9,12 @@ fixed weighting instead (claim (d)'s per-preference policies) and evaluates it a
 The evaluation runs the raw environment (actions clipped to the action space) with the deterministic mean action
 at evenly spaced preferences (two objectives) or on a simplex lattice (three or more), a fixed set of seeded
 episodes each, and sums undiscounted returns. It prints and writes (JSON, PNG) the hypervolume of the non-dominated
-points against the task's reference point, their sparsity and count, the hypervolume after every ``--eval-every``
-env steps, and training wall time and steps per second.
+points against the task's reference point, their sparsity and count, the expected utility (the mean over the
+preferences of lambda . returns normalised by the task's OBJECTIVE_RANGES), and training wall time and steps per
+second. Evaluations sit on a fixed grid: after the first update at or past every multiple of ``--eval-every`` env
+steps, and at the end of training, each keeping its per-preference returns, so runs of any length share evaluation
+points. ``--match-pci-parameters`` gives the gated variant PCI's expert count and parameter count
+(tools/matched_gate.py). Each rollout's routing mass per expert (mixture actors) is read back from the training log.
 """
 
 from __future__ import annotations
@@ -20,6 +24,7 @@ import copy
 import json
 import math
 import os
+import re
 import time
 
 import numpy as np
@@ -28,7 +33,7 @@ import torch
 from pchc_rsl.configs import select_actor, task_config
 from pchc_rsl.envs.mo_gym import MOGymVecEnv
 from pchc_rsl.evaluation import evenly_spaced_preferences
-from pchc_rsl.pareto import hypervolume, non_dominated, sparsity
+from pchc_rsl.pareto import expected_utility, hypervolume, non_dominated, sparsity
 from pchc_rsl.preference import simplex_lattice, validate_preference
 
 REFERENCE_POINTS = {
@@ -39,6 +44,15 @@ REFERENCE_POINTS = {
     "mo-halfcheetah-v5": (-100.0, -6000.0),
     "mo-walker2d-v5": (-100.0, -5000.0),
     "mo-hopper-v5": (-100.0, -100.0, -2000.0),
+}
+OBJECTIVE_RANGES = {
+    # (low, high) per objective for the expected utility. low: the reference point. high: energy 0 (no action) plus
+    # the healthy reward where the env adds it (1 per step for 1000 steps); forward and height: a bound no policy
+    # in these studies reaches in 1000 steps (their best returns are below 4000 on every task).
+    "mo-hopper-2obj-v5": ((-100.0, -100.0), (4000.0, 4000.0)),
+    "mo-halfcheetah-v5": ((-100.0, -6000.0), (5000.0, 0.0)),
+    "mo-walker2d-v5": ((-100.0, -5000.0), (6000.0, 1000.0)),
+    "mo-hopper-v5": ((-100.0, -100.0, -2000.0), (4000.0, 4000.0, 1000.0)),
 }
 VARIANTS = {
     "pci": ("pci", {}),
@@ -85,6 +99,135 @@ def evaluate_front(policy, env_cfg, preferences, episodes: int, seed: int, refer
             "sparsity": sparsity(front), "num_points": int(len(front)), "reference_point": list(reference)}
 
 
+def with_expected_utility(result: dict, objective_range) -> dict:
+    """Add the expected utility of an evaluate_front result and the range it was normalised by."""
+    low, high = objective_range
+    result["expected_utility"] = expected_utility([r["mean_return"] for r in result["rows"]],
+                                                  [r["preference"] for r in result["rows"]], low, high)
+    result["objective_range"] = {"low": list(low), "high": list(high)}
+    return result
+
+
+def evaluation_iterations(total_iterations: int, steps_per_iteration: int, eval_every: int) -> list[int]:
+    """Iterations after which to evaluate: the first at or past each multiple of ``eval_every`` env steps, and the last.
+
+    The grid is in env steps, not in chunks of iterations, so the evaluations land at the same points whatever the
+    run's length, and the final one is never a separate evaluation one update after the last grid point.
+    """
+    if eval_every <= 0:
+        return [total_iterations]
+    marks = set()
+    k = 1
+    while (it := math.ceil(k * eval_every / steps_per_iteration)) < total_iterations:
+        marks.add(it)
+        k += 1
+    return sorted(marks | {total_iterations})
+
+
+def history_entry(result: dict, env_steps: int) -> dict:
+    """One evaluation of a run: its env steps, measures and per-preference mean returns."""
+    return {"env_steps": env_steps, "hypervolume": result["hypervolume"],
+            "expected_utility": result["expected_utility"], "num_points": result["num_points"],
+            "mean_returns": [r["mean_return"] for r in result["rows"]]}
+
+
+def train_folders(out: str) -> list[str]:
+    """A run's training folders in the order they were written: train, then train_resumed1, 2, ... (a resumed run
+    trains into a new folder, as pchc-train --resume does)."""
+    resumed = sorted((int(m.group(1)), name) for name in (os.listdir(out) if os.path.isdir(out) else [])
+                     if (m := re.fullmatch(r"train_resumed(\d+)", name)))
+    return [os.path.join(out, "train")] + [os.path.join(out, name) for _, name in resumed]
+
+
+def checkpoints(out: str) -> dict[int, str]:
+    """iteration -> the newest model_<iteration>.pt among the run's training folders."""
+    found = {}
+    for folder in train_folders(out):
+        for name in os.listdir(folder) if os.path.isdir(folder) else []:
+            if m := re.fullmatch(r"model_(\d+)\.pt", name):
+                found[int(m.group(1))] = os.path.join(folder, name)
+    return found
+
+
+def routing_mass_per_rollout(out: str) -> dict | None:
+    """{"iterations": [...], "per_expert": [[mass of expert j at each iteration] for j]} from the run's TensorBoard
+    logs (MultiCriticPPO logs it for mixture actors); an iteration a resumed run trained again counts as last
+    trained. None when the logs hold no routing mass."""
+    from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+    latest: dict[str, dict[int, float]] = {}
+    for folder in train_folders(out):
+        if not os.path.isdir(folder):
+            continue
+        events = EventAccumulator(folder, size_guidance={"scalars": 0})
+        events.Reload()
+        for tag in (t for t in events.Tags().get("scalars", []) if t.startswith("Routing/expert_")):
+            latest.setdefault(tag, {}).update({e.step: e.value for e in events.Scalars(tag)})
+    if not latest:
+        return None
+    tags = sorted(latest, key=lambda t: int(t.rsplit("_", 1)[1]))
+    iterations = sorted(latest[tags[0]])
+    return {"iterations": iterations, "per_expert": [[latest[t][i] for i in iterations] for t in tags]}
+
+
+def matched_actor(cfg):
+    """The gated actor config sized like this task's PCI actor, and both parameter counts."""
+    from matched_gate import matched_gate
+
+    env = MOGymVecEnv(cfg.env, 1, "cpu", 0)
+    obs = env.get_observations()
+    env.close()
+    pci = copy.deepcopy(task_config(cfg.name).runner.actor)
+    select_actor(pci, "pci")
+    return matched_gate(pci, obs, {"actor": cfg.runner.obs_groups["actor"]}, env.num_actions)
+
+
+def resume(runner, saved: dict[int, str], progress_path: str, grid: list[int], steps_per_iteration: int, evaluate,
+           fresh: dict) -> dict:
+    """Continue an interrupted run from its newest checkpoint (model_<it>.pt, which rsl-rl writes after every
+    evaluation chunk and every save_interval iterations), with its random streams.
+
+    The evaluations already done come from progress.json; any missing (a run started without it) are redone from the
+    checkpoint at that grid point, which gives the same numbers (deterministic policy, seeded episodes). The
+    environments start new episodes, so a resumed run matches an uninterrupted one in distribution, not bit for bit.
+    Its wall and CPU times cover the sessions that wrote progress.json (``cpu_seconds_complete`` says whether that
+    is all of them).
+    """
+    progress = fresh
+    if os.path.isfile(progress_path):
+        with open(progress_path) as f:
+            progress = json.load(f)
+    if not saved:
+        return progress
+    newest = max(saved)
+    done = min(newest + 1, grid[-1])
+    history = {h["env_steps"]: h for h in progress["history"] if h["env_steps"] <= done * steps_per_iteration}
+    for g in (g for g in grid if g <= done and g * steps_per_iteration not in history):
+        if g - 1 not in saved:
+            raise SystemExit(f"Cannot resume: the evaluation after iteration {g - 1} is not in {progress_path} and "
+                             f"model_{g - 1}.pt is missing; start the run afresh.")
+        runner.load(saved[g - 1])
+        result = evaluate(runner.get_inference_policy())
+        history[g * steps_per_iteration] = history_entry(result, g * steps_per_iteration)
+        progress["last_result"] = result
+        progress["cpu_seconds_complete"] = False  # the interrupted session's time is not known
+    runner.load(saved[newest], resume=True)
+    progress["history"] = [history[k] for k in sorted(history)]
+    progress["done"] = done
+    progress["resumed"] += 1
+    print(f"resuming {saved[newest]} (after iteration {newest}): {len(history)} evaluations kept or redone",
+          flush=True)
+    return progress
+
+
+def write_json_atomically(path: str, data) -> None:
+    """Write to a temporary file, then rename: an interrupted write never leaves a half-written file."""
+    tmp = f"{path}.tmp{os.getpid()}"
+    with open(tmp, "w") as f:
+        json.dump(data, f, indent=2)
+    os.replace(tmp, path)
+
+
 def plot_front(result: dict, objective_names: list[str], path: str) -> None:
     import matplotlib
 
@@ -124,6 +267,9 @@ def build_parser() -> argparse.ArgumentParser:
                         help="Dirichlet concentration of the training preferences (default: the task's, 1 = uniform; "
                              "below 1 puts more episodes near the simplex vertices)")
     parser.add_argument("--routing-scale", type=float, help="PCI routing scale s (default: the actor's)")
+    parser.add_argument("--match-pci-parameters", action="store_true",
+                        help="gated variant: as many experts as PCI has on this task, and expert widths that make the "
+                             "parameter count PCI's (tools/matched_gate.py)")
     parser.add_argument("--fixed-preference", metavar="L1,L2,...",
                         help="train at this preference only and evaluate there (one point of the front)")
     parser.add_argument("--preferences", type=int, default=11, help="evaluation preferences (two objectives)")
@@ -134,6 +280,9 @@ def build_parser() -> argparse.ArgumentParser:
                         help="also evaluate the front after every this many env steps (0: only at the end)")
     parser.add_argument("--eval-seed", type=int, default=10_000)
     parser.add_argument("--out", help="output folder (default: logs/mo_benchmark/TASK/VARIANT_seedS)")
+    parser.add_argument("--resume", action="store_true",
+                        help="continue an interrupted run in --out from its newest checkpoint (a finished one is left "
+                             "as it is; an empty folder starts afresh)")
     return parser
 
 
@@ -154,6 +303,11 @@ def main(argv: list[str] | None = None) -> dict:
         if actor_variant != "pci":
             raise SystemExit(f"--routing-scale applies to the PCI actor, not to variant '{args.variant}'.")
         cfg.runner.actor.kwargs["routing_scale"] = args.routing_scale
+    parameters = None
+    if args.match_pci_parameters:
+        if args.variant != "gated":
+            raise SystemExit(f"--match-pci-parameters sizes the gated variant, not variant '{args.variant}'.")
+        cfg.runner.actor, parameters = matched_actor(cfg)
     num_objectives = len(cfg.env.objective_names)
     if args.fixed_preference is not None:
         lam = validate_preference([float(x) for x in args.fixed_preference.split(",")], num_objectives)
@@ -165,36 +319,59 @@ def main(argv: list[str] | None = None) -> dict:
     os.makedirs(out, exist_ok=True)
     steps_per_iteration = cfg.num_envs * cfg.runner.num_steps_per_env
     iterations = max(1, math.ceil(args.steps / steps_per_iteration))
-    chunk = iterations if args.eval_every <= 0 else max(1, args.eval_every // steps_per_iteration)
 
     def evaluate(policy) -> dict:
-        return evaluate_front(policy, cfg.env, preferences, args.episodes, args.eval_seed,
-                              REFERENCE_POINTS[args.task])
+        result = evaluate_front(policy, cfg.env, preferences, args.episodes, args.eval_seed, REFERENCE_POINTS[args.task])
+        return with_expected_utility(result, OBJECTIVE_RANGES[args.task])
 
-    runner = make_runner(cfg, os.path.join(out, "train"))
-    train_time, done, history = 0.0, 0, []
-    while done < iterations:
-        step = min(chunk, iterations - done)
+    if args.resume and os.path.isfile(os.path.join(out, "result.json")):
+        print(f"{out} is finished (result.json); nothing to resume")
+        with open(os.path.join(out, "result.json")) as f:
+            return json.load(f)
+    saved = checkpoints(out) if args.resume else {}
+    train_dir = os.path.join(out, f"train_resumed{len(train_folders(out))}" if saved else "train")
+    runner = make_runner(cfg, train_dir)
+    if parameters is None:
+        parameters = {"actor": sum(p.numel() for p in runner.alg.actor.parameters())}
+    grid = evaluation_iterations(iterations, steps_per_iteration, args.eval_every)
+    cpu_start = time.process_time()
+    progress = {"done": 0, "history": [], "last_result": None, "train_wall_time_s": 0.0, "eval_wall_time_s": 0.0,
+                "cpu_seconds": 0.0, "cpu_seconds_complete": True, "resumed": 0}
+    if args.resume:
+        progress = resume(runner, saved, os.path.join(out, "progress.json"), grid, steps_per_iteration, evaluate,
+                          progress)
+        write_json_atomically(os.path.join(out, "progress.json"), progress)  # keep any evaluations it redid
+    for target in [g for g in grid if g > progress["done"]]:
         start = time.perf_counter()
-        runner.learn(step)
-        train_time += time.perf_counter() - start
-        done += step
-        if done < iterations:
-            partial = evaluate(runner.get_inference_policy())
-            history.append({"env_steps": done * steps_per_iteration, "hypervolume": partial["hypervolume"]})
-    runner.save(os.path.join(out, "train", "model_final.pt"))
+        runner.current_learning_iteration = progress["done"]  # rsl-rl leaves it at the last iteration run
+        runner.learn(target - progress["done"])
+        progress["train_wall_time_s"] += time.perf_counter() - start
+        progress["done"] = target
+        start = time.perf_counter()
+        result = evaluate(runner.get_inference_policy())
+        progress["eval_wall_time_s"] += time.perf_counter() - start
+        progress["history"].append(history_entry(result, target * steps_per_iteration))
+        progress["last_result"] = result
+        progress["cpu_seconds"] += time.process_time() - cpu_start
+        cpu_start = time.process_time()
+        write_json_atomically(os.path.join(out, "progress.json"), progress)
+    if not any(os.path.isfile(os.path.join(folder, "model_final.pt")) for folder in train_folders(out)):
+        runner.save(os.path.join(train_dir, "model_final.pt"))
     trained_steps = iterations * steps_per_iteration
+    result = progress["last_result"]
+    train_time, eval_time = progress["train_wall_time_s"], progress["eval_wall_time_s"]
 
-    start = time.perf_counter()
-    result = evaluate(runner.get_inference_policy())
-    history.append({"env_steps": trained_steps, "hypervolume": result["hypervolume"]})
     result.update(task=args.task, variant=args.variant, seed=args.seed, env_steps=trained_steps,
-                  train_wall_time_s=train_time, steps_per_second=trained_steps / train_time,
-                  eval_wall_time_s=time.perf_counter() - start, num_episodes=args.episodes, history=history,
-                  fixed_preference=cfg.fixed_preference, routing_scale=cfg.runner.actor.kwargs.get("routing_scale"),
-                  preference_concentration=cfg.env.preference_concentration)
-    with open(os.path.join(out, "result.json"), "w") as f:
-        json.dump(result, f, indent=2)
+                  train_wall_time_s=train_time, steps_per_second=trained_steps / max(train_time, 1e-9),
+                  eval_wall_time_s=eval_time, num_episodes=args.episodes, preferences=[list(p) for p in preferences],
+                  history=progress["history"], resumed=progress["resumed"],
+                  cpu_seconds=progress["cpu_seconds"] + time.process_time() - cpu_start,
+                  cpu_seconds_complete=progress["cpu_seconds_complete"], fixed_preference=cfg.fixed_preference,
+                  routing_scale=cfg.runner.actor.kwargs.get("routing_scale"), parameters=parameters,
+                  expert_hidden_dims=list(cfg.runner.actor.hidden_dims),
+                  preference_concentration=cfg.env.preference_concentration,
+                  routing_mass=routing_mass_per_rollout(out))
+    write_json_atomically(os.path.join(out, "result.json"), result)
     plot_front(result, cfg.env.objective_names, os.path.join(out, "pareto.png"))
     print(f"{args.task} {args.variant} seed {args.seed}: {trained_steps} steps in {train_time:.0f} s "
           f"({result['steps_per_second']:.0f} steps/s)")
@@ -202,7 +379,8 @@ def main(argv: list[str] | None = None) -> dict:
         print("  lambda " + "/".join(f"{v:.2f}" for v in row["preference"]) + ": return "
               + ", ".join(f"{v:.1f}" for v in row["mean_return"]))
     print(f"  hypervolume {result['hypervolume']:.6g} (reference point {tuple(result['reference_point'])}), "
-          f"sparsity {result['sparsity']:.6g}, {result['num_points']} non-dominated points; {out}")
+          f"sparsity {result['sparsity']:.6g}, {result['num_points']} non-dominated points, expected utility "
+          f"{result['expected_utility']:.4f} (ranges {result['objective_range']}); {out}")
     return result
 
 

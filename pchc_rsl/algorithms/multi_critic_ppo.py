@@ -167,6 +167,7 @@ class MultiCriticPPO(PPO):
             dim=-1, keepdim=True
         )
         self._record_return_stats(flat, std, silent)
+        self._record_routing_mass()
         self._reset_group_activity()
         if self.value_normalizer is not None:
             # The value loss compares critic outputs with returns in the normalised units of the updated statistics.
@@ -183,6 +184,18 @@ class MultiCriticPPO(PPO):
             self.return_stats[f"value_error/{name}"] = value_error[k].item()
             self.return_stats[f"advantage_std/{name}"] = adv_std[k].item()
             self.return_stats[f"silent_group/{name}"] = float(silent[k])
+
+    def _record_routing_mass(self) -> None:
+        """Each expert's mean weight over the rollout's states (``routing_mass/expert_<j>``, logged with the losses):
+        its share of the samples, which is what it trains on. Mixture actors only (those with ``expert_weights``)."""
+        if not hasattr(self.actor, "expert_weights"):
+            return
+        states = self.storage.observations.flatten(0, 1)  # views, no copy
+        with torch.no_grad():  # in chunks: a G1 rollout is ~10^5 states
+            mass = sum(self.actor.expert_weights(states[i : i + 16384]).sum(dim=0)
+                       for i in range(0, states.shape[0], 16384)) / states.shape[0]
+        for j, value in enumerate(mass.tolist()):
+            self.return_stats[f"routing_mass/expert_{j}"] = value
 
     def update(self) -> dict[str, float]:
         loss_dict = super().update()

@@ -256,6 +256,11 @@ class _MixtureActor(PreferenceMLPModel):
             experts_see_preference=experts_see_preference,
         )
 
+    def expert_weights(self, obs: TensorDict) -> torch.Tensor:
+        """[N, E] each expert's weight in the actions for these observations: how the mixture shares out the samples
+        its experts train on (PCI: fixed by lambda; gated: whatever the gate learned)."""
+        return self.mlp.routing(self.get_latent(obs))
+
     def _locate_history(self, obs: TensorDict, group: str, history_length: int) -> tuple[int, int, int]:
         """Columns [start, stop) of the history group in the concatenated observation, and H."""
         if group not in self.obs_groups:
@@ -307,6 +312,11 @@ class PCIActor(_MixtureActor):
         else:
             positions = simplex_lattice(m, lattice_resolution)
         self.mlp = PCIHead(positions, alpha0, beta0, routing_scale, **self.head_kwargs)
+
+    def expert_weights(self, obs: TensorDict) -> torch.Tensor:
+        """[N, E]: PCI's weights depend on lambda alone, so the observation is not encoded."""
+        head = self.mlp
+        return routing_weights(obs[self.preference_group], head.positions, head.alpha0, head.beta0, head.scale)
 
 
 class GatedMoEActor(_MixtureActor):

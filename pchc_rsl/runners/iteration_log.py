@@ -21,6 +21,7 @@ from rsl_rl.utils.logger import Logger
 ANSI_ESCAPE = re.compile(r"\x1b\[[0-9;]*m")
 OBJECTIVE_PREFIX = "Episode_Objective/"
 FALL_KEY = "Episode_Termination/fall"
+ROUTING_PREFIX = "routing_mass"
 
 
 class IterationLogger(Logger):
@@ -28,7 +29,9 @@ class IterationLogger(Logger):
 
     ``guard(it, loss_dict)`` runs first at every iteration (the runner's non-finite check): it may raise to stop
     training before anything of that iteration is logged or saved. Per-critic diagnostics (``value_error/<group>``,
-    ``advantage_std/<group>``: keys with a '/') are not losses: they go to ``Critic/<key>``, not ``Loss/<key>``.
+    ``advantage_std/<group>``: keys with a '/') are not losses: they go to ``Critic/<key>``, not ``Loss/<key>``; a
+    mixture actor's ``routing_mass/expert_<j>`` (each expert's mean weight over the rollout) goes to
+    ``Routing/expert_<j>``.
     """
 
     def __init__(self, *args, verbose: bool = False, guard: Callable[[int, dict], None] | None = None, **kwargs):
@@ -57,7 +60,9 @@ class IterationLogger(Logger):
         if self.writer is None:
             return
         for key, value in diagnostics.items():
-            self.writer.add_scalar(f"Critic/{key}", value, it)
+            section, _, name = key.partition("/")
+            tag = f"Routing/{name}" if section == ROUTING_PREFIX else f"Critic/{key}"
+            self.writer.add_scalar(tag, value, it)
         print(line, flush=True)
         if self.verbose:
             print(ANSI_ESCAPE.sub("", block.getvalue()), flush=True)
