@@ -36,7 +36,7 @@ def g1_available() -> bool:
 
 
 needs_sdk = pytest.mark.skipif(not sdk_available(), reason="unitree_sdk2py missing (pip install 'pchc-rsl[deploy]')")
-needs_g1 = pytest.mark.skipif(not g1_available(), reason="G1 model unavailable (set MENAGERIE_ROOT offline)")
+needs_g1 = pytest.mark.skipif(not g1_available(), reason="G1 model unavailable (set MENAGERIE_ROOT)")
 
 
 def standing_state(q=None, received_at: float = 0.0) -> RobotState:

@@ -28,6 +28,11 @@ class TaskEvaluation:
     command: tuple[float, float, float] | None = None
     push_only_when_standing: bool = False
     """Push the robot once it stands (fall recovery), not while it is still on the floor."""
+    paper_front: dict[tuple[float, float], tuple[float, float]] = field(default_factory=dict)
+    """The paper's figures of the two front metrics (unsigned, in ``front``'s order) by preference, drawn beside
+    ours; empty where the paper gives none in the same units."""
+    paper_note: str = ""
+    """Why the paper's points are not drawn, when they are not."""
 
 
 WALK_EVALUATION = TaskEvaluation(
@@ -42,6 +47,9 @@ WALK_EVALUATION = TaskEvaluation(
     push_presets=["mild", "strong"],
     pushes={"mild": (0.5, 1.0), "strong": (2.25, 1.0), "mild-v1": (0.5, 1.0), "strong-v1": (1.2, 1.0)},
     command=(0.5, 0.0, 0.0),
+    # Table II: (trajectory deviation m, avg. stride m); its (1, 0) row is printed (0.10, 0.00), a typo
+    paper_front={(1.0, 0.0): (0.23, 0.42), (0.75, 0.25): (0.29, 0.55), (0.5, 0.5): (0.33, 0.67),
+                 (0.25, 0.75): (0.51, 0.72), (0.0, 1.0): (0.85, 0.79)},
 )
 
 
@@ -63,6 +71,7 @@ FALL_RECOVERY_EVALUATION = TaskEvaluation(
     push_presets=["mild", "strong"],
     pushes={"mild": (2.25, 3.0), "strong": (2.5, 3.0), "mild-v1": (0.5, 1.0), "strong-v1": (1.2, 1.0)},
     push_only_when_standing=True,
+    paper_note="Table I's energy is in J, ours in J/s (mean power): its points are not drawn.",
 )
 
 
