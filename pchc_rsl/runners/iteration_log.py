@@ -36,6 +36,8 @@ class IterationLogger(Logger):
         self.verbose = verbose
         self.guard = guard
         self.iteration_times: list[float] = []
+        self.physics_stats: dict[str, float] = {}
+        """The env's physics report of the last rollout (``env.physics_report()``), written as ``Physics/<key>``."""
         self._finished_steps: list[tuple[torch.Tensor, list[torch.Tensor]]] = []
         """Per env step since the last flush: which envs finished an episode, and the running sums at that step."""
 
@@ -100,6 +102,8 @@ class IterationLogger(Logger):
             return
         for key, value in diagnostics.items():
             self.writer.add_scalar(f"Critic/{key}", value, it)
+        for key, value in self.physics_stats.items():
+            self.writer.add_scalar(f"Physics/{key}", value, it)
         print(line, flush=True)
         if self.verbose:
             print(ANSI_ESCAPE.sub("", block.getvalue()), flush=True)

@@ -14,7 +14,7 @@ from tensordict import TensorDict
 from rsl_rl.env import VecEnv
 from rsl_rl.runners import OnPolicyRunner
 
-from pchc_rsl.distributed import init_process_group, world
+from pchc_rsl.distributed import init_process_group, shutdown_process_group, world
 from pchc_rsl.export import export_onnx
 from pchc_rsl.files import atomic_write
 from pchc_rsl.finite import RolloutNaNCheck, first_non_finite_tensor, first_non_finite_value
@@ -88,6 +88,7 @@ class PCHCRunner(OnPolicyRunner):
             raise
         finally:
             self._close_writer()
+            shutdown_process_group()
 
     def _learning_loop(self, num_learning_iterations: int, init_at_random_ep_len: bool) -> None:
         """OnPolicyRunner.learn of rsl-rl 5.5, step for step, with the rollout in ``rollout`` (no host sync per
@@ -144,6 +145,8 @@ class PCHCRunner(OnPolicyRunner):
                 self.logger.process_env_step(rewards, dones, extras, self.alg.intrinsic_rewards if rnd else None)
             if nan_check is not None:
                 nan_check.raise_if_any()
+        if hasattr(self.env, "physics_report"):  # once per rollout: buffer peaks, and a clear stop on an overflow
+            self.logger.physics_stats = self.env.physics_report()
         return obs
 
     def _close_writer(self) -> None:
@@ -238,8 +241,8 @@ class PCHCRunner(OnPolicyRunner):
         name, key, position, has_gauss, cached_gaussian = np.random.get_state()
         numpy_rng = [name, torch.from_numpy(key.astype(np.int64)), int(position), int(has_gauss), float(cached_gaussian)]
         state = {"torch_rng": torch.get_rng_state(), "numpy_rng": numpy_rng}
-        if torch.cuda.is_available():
-            state["cuda_rng"] = torch.cuda.get_rng_state_all()
+        if torch.device(self.device).type == "cuda":  # this process' GPU only: reading every GPU's state waits on each
+            state["cuda_rng"] = torch.cuda.get_rng_state(self.device)
         if hasattr(self.env, "state_dict"):
             state["env"] = self.env.state_dict()
         return state
@@ -256,8 +259,11 @@ class PCHCRunner(OnPolicyRunner):
         if "numpy_rng" in state:
             name, key, position, has_gauss, cached_gaussian = state["numpy_rng"]
             np.random.set_state((name, key.numpy().astype(np.uint32), position, has_gauss, cached_gaussian))
-        if "cuda_rng" in state and torch.cuda.is_available():
-            torch.cuda.set_rng_state_all(state["cuda_rng"])
+        if "cuda_rng" in state and torch.device(self.device).type == "cuda":
+            saved = state["cuda_rng"]  # one GPU's state; older checkpoints hold a list, one per GPU
+            index = torch.device(self.device).index or 0
+            saved = saved[min(index, len(saved) - 1)] if isinstance(saved, (list, tuple)) else saved
+            torch.cuda.set_rng_state(saved, self.device)
         if "env" in state and hasattr(self.env, "load_state_dict"):
             self.env.load_state_dict(state["env"])
 
