@@ -12,6 +12,7 @@ from rsl_rl.models import MLPModel
 from rsl_rl.modules import EmpiricalNormalization
 from rsl_rl.utils import reduce_gradients_in_buckets, resolve_class, resolve_obs_groups
 
+from pchc_rsl.algorithms.mirror_loss import SharedPassSymmetry
 from pchc_rsl.amp.style import AMPStyle
 from pchc_rsl.storage import MultiCriticRolloutStorage
 
@@ -54,6 +55,8 @@ class MultiCriticPPO(PPO):
                 "lambda; normalize_advantage_per_mini_batch=True would rescale the weighted sum. Set it to False."
             )
         super().__init__(actor, critic, storage, **kwargs)
+        if self.symmetry is not None:  # the same mirror loss, without a second actor pass per mini-batch
+            self.symmetry = SharedPassSymmetry(**kwargs["symmetry_cfg"])
         self.preference_group = preference_group
         self.task_advantage_weight = task_advantage_weight
         self.num_critics = storage.num_critics
