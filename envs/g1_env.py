@@ -315,6 +315,12 @@ class G1Env(VecEnv):
         p.sanitize(bad)
         return bad
 
+    def physics_report(self) -> dict[str, float]:
+        """Read once per training iteration: the physics' buffer and solver peaks since the last call (MuJoCo Warp;
+        raises PhysicsOverflow when a buffer overflowed); empty for C MuJoCo, which grows its buffers itself."""
+        report = getattr(self.physics, "overflow_report", None)
+        return report() if report is not None else {}
+
     # ---------------------------------------------------------------- metrics
     def step_metrics(self) -> dict[str, torch.Tensor]:
         """[N] per-step quantities whose episode sums make the metrics (tasks extend it); no side effects."""

@@ -20,6 +20,9 @@ import mujoco
 import numpy as np
 import torch
 
+from pchc_rsl.envs.warp_device import (TESTED_MUJOCO_WARP, cuda_graph_problem, mujoco_warp_version_note,
+                                       require_warp_cuda)
+
 try:
     import mujoco_warp as mjw
     import warp as wp
@@ -29,14 +32,38 @@ except ImportError as error:  # the optional extra
         f"{mujoco.__version__}). ({error})"
     ) from None
 
+SOLVER_ITERATIONS = 10
+LINESEARCH_ITERATIONS = 20
+CONTACTS_PER_ENV = 16
+CONSTRAINTS_PER_ENV = 64
+
+BUFFER_OVERFLOWS = {
+    "NEFC": "constraint rows (njmax): raise WarpMuJoCo's constraints_per_env",
+    "NJMAX_NNZ": "constraint Jacobian non-zeros: raise WarpMuJoCo's constraints_per_env",
+    "BROADPHASE": "broadphase collision pairs: raise WarpMuJoCo's contacts_per_env",
+    "NARROWPHASE": "contacts (naconmax): raise WarpMuJoCo's contacts_per_env",
+    "CCD": "convex collision contacts (naccdmax): raise WarpMuJoCo's contacts_per_env",
+    "NVMAX": "active degrees of freedom (nvmax)",
+}
+"""Warp's overflow flags that mean results were dropped, and what to do; the solver's iteration limits are not
+errors (the step stops at the limit, as C MuJoCo does) and are reported as the largest iteration count instead."""
+
+
+class PhysicsOverflow(RuntimeError):
+    """A Warp buffer overflowed: contacts or constraint rows were dropped, so the physics was wrong."""
+
 def batchable_fields() -> list[str]:
     """Model fields MuJoCo Warp can give a leading batch dimension (their array spec starts with '*')."""
     import dataclasses
 
-    from mujoco_warp._src import warp_util
-
+    try:
+        from mujoco_warp._src.warp_util import is_array_spec
+    except ImportError as error:
+        raise ImportError(f"mujoco-warp {getattr(mjw, '__version__', '?')} lacks the helper this project reads "
+                          f"({error}); install a tested version: pip install mujoco-warp=={TESTED_MUJOCO_WARP[-1]}"
+                          ) from None
     return [f.name for f in dataclasses.fields(mjw.Model)
-            if warp_util.is_array_spec(f.type) and getattr(f.type, "shape", ())[:1] == ("*",)]
+            if is_array_spec(f.type) and getattr(f.type, "shape", ())[:1] == ("*",)]
 
 
 def differing_fields(variants: list[mujoco.MjModel]) -> list[str]:
@@ -57,11 +84,13 @@ def differing_fields(variants: list[mujoco.MjModel]) -> list[str]:
 
 
 class WarpMuJoCo:
-    """N environments as N Warp worlds of one model (see the module docstring for randomised variants)."""
+    """N environments as N Warp worlds of one model (see the module docstring for randomised variants, solver
+    settings and buffer sizes)."""
 
     def __init__(self, models: mujoco.MjModel | list[mujoco.MjModel], num_envs: int, substeps: int,
-                 device: str = "cuda:0", with_body_forces: bool = False, contacts_per_env: int = 64,
-                 constraints_per_env: int = 320) -> None:
+                 device: str = "cuda:0", with_body_forces: bool = False, contacts_per_env: int = CONTACTS_PER_ENV,
+                 constraints_per_env: int = CONSTRAINTS_PER_ENV, solver_iterations: int = SOLVER_ITERATIONS,
+                 linesearch_iterations: int = LINESEARCH_ITERATIONS) -> None:
         self.models = models if isinstance(models, list) else [models] * num_envs
         if len(self.models) != num_envs:
             raise ValueError(f"Got {len(self.models)} models for {num_envs} envs.")
@@ -70,6 +99,11 @@ class WarpMuJoCo:
         self.device = str(torch.device(device))
         wp.config.log_level = max(wp.config.log_level, logging.WARNING)  # no line per kernel module loaded
         wp.init()
+        if torch.device(self.device).type == "cuda":
+            require_warp_cuda(self.device)
+        note = mujoco_warp_version_note()
+        if note:
+            logging.getLogger(__name__).warning(note)
         self.wp_device = wp.get_device(self.device)
         variants = _variants(self.models)
         m = self.model
@@ -77,6 +111,8 @@ class WarpMuJoCo:
             batched = differing_fields(variants)
             self.batched_fields = batched
             self.wp_model = mjw.put_model(m, batch_sizes={name: len(variants) for name in batched})
+            self.wp_model.opt.iterations = solver_iterations
+            self.wp_model.opt.ls_iterations = linesearch_iterations
             for name in batched:
                 field = wp.to_torch(getattr(self.wp_model, name))
                 values = np.stack([getattr(v, name) for v in variants])
@@ -86,18 +122,37 @@ class WarpMuJoCo:
             self._qvel_records = wp.zeros((substeps, num_envs, m.nv), dtype=float)
             self._ctrl_substeps = wp.zeros((substeps, num_envs, m.nu), dtype=float)
         d = self.data
+        # torch views of Warp's arrays, made once (wp.to_torch builds a new tensor object at every call)
         self.qpos, self.qvel = wp.to_torch(d.qpos), wp.to_torch(d.qvel)
         self.substep_sensors = wp.to_torch(self._sensor_records).permute(1, 0, 2)
         self.substep_qvel = wp.to_torch(self._qvel_records).permute(1, 0, 2)
         self.body_forces = wp.to_torch(d.xfrc_applied) if with_body_forces else None
+        self._ctrl_view = wp.to_torch(self._ctrl_substeps)  # [K, N, nu]: read by each substep
+        self._sensordata = wp.to_torch(d.sensordata)
+        self._reset_fields = [v for v in (wp.to_torch(f) for f in (d.act, d.qacc_warmstart, d.time)) if v.numel()]
+        self._state_fields = [v for v in (wp.to_torch(f) for f in (d.qpos, d.qvel, d.act, d.qacc_warmstart))
+                              if v.numel()]
+        self._overflow, self._nefc, self._niter = wp.to_torch(d.overflow), wp.to_torch(d.nefc), wp.to_torch(
+            d.solver_niter)
+        self._nacon = wp.to_torch(d.nacon)
+        self._peaks = torch.zeros(3, dtype=torch.long, device=self.device)
+        """Since the last overflow_report: largest constraint rows of a world, solver iterations, contacts (all)."""
         self.diverged = torch.zeros(num_envs, dtype=torch.bool, device=self.device)
         """Always False: Warp does not reset a diverged world (the env's NaN and velocity checks catch it)."""
         self._graphs: dict[str, object] = {}
         """CUDA graphs by name: the substep loop, and the forward pass of a reset."""
         self._capture_stream = None
+        self._torch_streams: dict[int, object] = {}
+        """Warp's handle of each torch stream seen, made once."""
+        self.eager_reason = cuda_graph_problem(self.wp_device) if self.wp_device.is_cuda else None
+        """Why a CUDA device runs the physics eagerly instead of as captured graphs (None: graphs)."""
         if self.wp_device.is_cuda:
             self._capture_stream = wp.Stream(self.wp_device)
-            wp.set_mempool_enabled(self.wp_device, True)  # a graph's allocations come from Warp's pool
+            if self.eager_reason is None:
+                wp.set_mempool_enabled(self.wp_device, True)  # a graph's allocations come from Warp's pool
+            else:
+                logging.getLogger(__name__).warning("MuJoCo Warp runs eagerly on %s, without CUDA graphs: %s",
+                                                    self.device, self.eager_reason)
         self._forward_and_record(slice(None))
 
     def _substeps(self) -> None:
@@ -112,9 +167,34 @@ class WarpMuJoCo:
     def step(self, ctrl: torch.Tensor) -> None:
         """Advance every world ``substeps`` physics steps holding ``ctrl`` [N, nu], or with one control per substep
         [N, K, nu] (an action delay), and ``body_forces``."""
-        per_substep = wp.to_torch(self._ctrl_substeps)  # [K, N, nu]: read by each substep inside the graph
+        per_substep = self._ctrl_view
         per_substep.copy_(ctrl.permute(1, 0, 2) if ctrl.ndim == 3 else ctrl.unsqueeze(0).expand_as(per_substep))
         self._launch("substeps", self._substeps)
+        self._record_peaks()
+
+    def _record_peaks(self) -> None:
+        """Fold this step's sizes into the running peaks (on the device: nothing waits). Warp's overflow flags are
+        sticky per world until cleared, so they need no folding."""
+        now = torch.stack([self._nefc.max(), self._niter.max(), self._nacon.max()]).to(self._peaks.dtype)
+        torch.maximum(self._peaks, now, out=self._peaks)
+
+    def overflow_report(self) -> dict[str, float]:
+        """Largest constraint rows of one world, solver iterations and contacts (all worlds) since the last call,
+        read once (one host sync); raise PhysicsOverflow when a buffer overflowed (results were dropped)."""
+        peaks = torch.cat([self._peaks, _or_all(self._overflow).view(1).to(self._peaks.dtype)]).tolist()
+        flags = peaks.pop()
+        self._peaks.zero_()
+        self._overflow.zero_()
+        report = {"max_constraint_rows": peaks[0], "constraint_rows_capacity": self.data.njmax,
+                  "max_solver_iterations": peaks[1], "solver_iterations_limit": self.wp_model.opt.iterations,
+                  "max_contacts": peaks[2], "contacts_capacity": self.data.naconmax}
+        dropped = [f"{name} ({advice})" for name, advice in BUFFER_OVERFLOWS.items()
+                   if flags & int(getattr(mjw.OverflowType, name, 0))]
+        if dropped:
+            raise PhysicsOverflow(
+                f"MuJoCo Warp overflowed its buffers ({'; '.join(dropped)}); peaks this iteration: {report}. The "
+                "physics dropped contacts or constraints, so training on it would be wrong.")
+        return {key: float(value) for key, value in report.items()}
 
     def _launch(self, name: str, work_fn) -> None:
         """Run ``work_fn`` (Warp launches only): eagerly on the CPU; on CUDA captured once as a graph named ``name``
@@ -124,7 +204,7 @@ class WarpMuJoCo:
         on and replayed from a stream of their own, ordered after torch's work (the control copy, a reset's writes)
         and before torch's next reads (observations) by explicit waits."""
         with wp.ScopedDevice(self.wp_device):
-            if not self.wp_device.is_cuda:
+            if not self.wp_device.is_cuda or self.eager_reason is not None:
                 work_fn()
                 return
             torch_stream = self._stream()
@@ -142,40 +222,46 @@ class WarpMuJoCo:
 
     def _stream(self):
         """Torch's current stream on a GPU, for Warp's eager work that torch's reads follow (resets)."""
-        return wp.stream_from_torch(torch.cuda.current_stream(self.device)) if self.wp_device.is_cuda else None
+        if not self.wp_device.is_cuda:
+            return None
+        current = torch.cuda.current_stream(self.device)
+        if current.cuda_stream not in self._torch_streams:
+            self._torch_streams[current.cuda_stream] = wp.stream_from_torch(current)
+        return self._torch_streams[current.cuda_stream]
 
     def sanitize(self, envs: torch.Tensor) -> None:
         """Zero the non-finite state, warm start and records of these worlds ([N] bool mask: diverged worlds,
         about to reset), by masks over all worlds so that nothing waits on the device."""
-        d = self.data
         rows = envs.to(self.device)
-        for field in (d.qpos, d.qvel, d.act, d.qacc_warmstart):
-            values = wp.to_torch(field)
-            if values.numel():
-                clean = torch.nan_to_num(values, nan=0.0, posinf=0.0, neginf=0.0)
-                values.copy_(torch.where(rows.view(-1, *([1] * (values.dim() - 1))), clean, values))
+        for values in self._state_fields:
+            clean = torch.nan_to_num(values, nan=0.0, posinf=0.0, neginf=0.0)
+            values.copy_(torch.where(rows.view(-1, *([1] * (values.dim() - 1))), clean, values))
         for records in (self.substep_sensors, self.substep_qvel):
             records.masked_fill_(rows.view(-1, *([1] * (records.dim() - 1))), 0.0)
 
     def set_qpos_qvel(self, env_ids: torch.Tensor, qpos: torch.Tensor, qvel: torch.Tensor) -> None:
         """Reset these worlds to (qpos, qvel) at rest (time 0, no actuator state, no warm start); a forward pass fills
         their sensors and substep records, as on the C backend."""
-        d = self.data
         ids = torch.as_tensor(env_ids, device=self.device)
         self.qpos[ids] = qpos.to(self.qpos)
         self.qvel[ids] = qvel.to(self.qvel)
-        for field in (d.act, d.qacc_warmstart, d.time):
-            values = wp.to_torch(field)
-            if values.numel():
-                values[ids] = 0.0
+        for values in self._reset_fields:
+            values[ids] = 0.0
         self._forward_and_record(ids)
 
     def _forward_and_record(self, ids) -> None:
         """mjw.forward on every world (the state stays), then every substep slot of these worlds' records holds
         their current sensors and joint velocities."""
         self._launch("forward", lambda: mjw.forward(self.wp_model, self.data))
-        self.substep_sensors[ids] = wp.to_torch(self.data.sensordata)[ids].unsqueeze(1)
+        self.substep_sensors[ids] = self._sensordata[ids].unsqueeze(1)
         self.substep_qvel[ids] = self.qvel[ids].unsqueeze(1)
+
+
+def _or_all(flags: torch.Tensor) -> torch.Tensor:
+    """Bitwise OR of every element (torch has no OR reduction): OR of each bit's any()."""
+    bits = torch.arange(flags.element_size() * 8 - 1, device=flags.device, dtype=flags.dtype)
+    present = ((flags.unsqueeze(-1) >> bits) & 1).amax(0)
+    return (present << bits).sum()
 
 
 def _variants(models: list[mujoco.MjModel]) -> list[mujoco.MjModel]:

@@ -15,7 +15,7 @@ from rsl_rl.utils import resolve_callable
 
 from pchc_rsl.configs import TaskConfig, task_config
 from pchc_rsl.configs.base import ACTOR_CLASSES, apply_saved
-from pchc_rsl.distributed import world
+from pchc_rsl.distributed import bind_local_gpu, world
 from pchc_rsl.files import atomic_write
 from pchc_rsl.preference import LEGACY_ROUTING_SCALE
 from pchc_rsl.runners import PCHCRunner
@@ -36,11 +36,10 @@ def make_runner(cfg: TaskConfig, log_dir: str | None = None, verbose: bool = Fal
     were built (a folder that already holds checkpoints is refused). ``config`` (default ``cfg.to_dict()``) is what
     checkpoints carry. Construction prints (the models,
     the observation sets) only with ``verbose``."""
-    world_size, rank, local_rank = world()
+    world_size, rank, _ = world()
     if world_size > 1:  # torchrun: each rank its own envs and seed, on its own GPU; rank 0 alone writes files
         cfg.seed += rank
-        if torch.device(cfg.device).type == "cuda":
-            cfg.device = f"cuda:{local_rank}"
+        cfg.device = bind_local_gpu(cfg.device)  # before the env: its physics may allocate on the GPU
         log_dir = log_dir if rank == 0 else None
     if log_dir is not None and glob.glob(os.path.join(log_dir, "model_*.pt")):
         raise FileExistsError(f"{log_dir} already holds checkpoints of another run; give a new folder.")

@@ -35,3 +35,19 @@ def init_process_group(backend: str, rank: int, world_size: int) -> None:
         raise DistributedSetupError(f"could not start the {world_size}-process {backend} world as rank {rank} ({first}); "
                            "start training with torchrun, e.g. torchrun --standalone --nproc_per_node=2 -m "
                            "pchc_rsl.cli.train --task ...") from None
+
+
+def bind_local_gpu(device: str) -> str:
+    """Under torchrun on CUDA: make the GPU of this process' local rank the current one, before anything (the env,
+    Warp's physics, the networks) allocates on a GPU, and return it ("cuda:LOCAL_RANK"); otherwise ``device``."""
+    world_size, _, local_rank = world()
+    if world_size <= 1 or torch.device(device).type != "cuda":
+        return device
+    torch.cuda.set_device(local_rank)
+    return f"cuda:{local_rank}"
+
+
+def shutdown_process_group() -> None:
+    """Leave the torchrun world (torch warns, and NCCL may hang at exit, when a process ends without it)."""
+    if torch.distributed.is_available() and torch.distributed.is_initialized():
+        torch.distributed.destroy_process_group()

@@ -88,3 +88,77 @@ def test_a_gpu_rank_starts_nccl_once_on_the_gpu_of_its_local_rank(monkeypatch):
     with pytest.raises(ValueError, match="uses the GPU of its local rank, cuda:1"):
         runner._configure_multi_gpu()
     assert calls == []
+
+
+def test_the_env_is_built_on_the_gpu_of_the_local_rank_set_before_it(monkeypatch):
+    """torchrun rank 1 on CUDA: make_runner makes cuda:1 the current device before the env exists (its physics may
+    allocate on the GPU), and the env and runner are given cuda:1. CUDA and the builders are recorders."""
+    from pchc_rsl import build
+    from pchc_rsl.configs import task_config
+
+    calls = []
+    monkeypatch.setenv("WORLD_SIZE", "2")
+    monkeypatch.setenv("RANK", "1")
+    monkeypatch.setenv("LOCAL_RANK", "1")
+    monkeypatch.setattr(torch.cuda, "set_device", lambda index: calls.append(("set_device", index)))
+    monkeypatch.setattr(build, "make_env", lambda cfg: calls.append(("env", cfg.device)) or "env")
+    monkeypatch.setattr(build, "PCHCRunner", lambda env, train_cfg, log_dir, device, config, verbose: calls.append(
+        ("runner", device)))
+    cfg = task_config("toy")
+    cfg.device = "cuda"
+    build.make_runner(cfg)
+    assert calls == [("set_device", 1), ("env", "cuda:1"), ("runner", "cuda:1")]
+
+
+def test_a_gpu_run_saves_and_restores_its_own_gpus_random_stream_only(monkeypatch):
+    from pchc_rsl.runners import PCHCRunner
+
+    reads = []
+    monkeypatch.setattr(torch.cuda, "get_rng_state", lambda device: reads.append(device) or torch.tensor([7]))
+    monkeypatch.setattr(torch.cuda, "get_rng_state_all", lambda: reads.append("all"))
+    runner = PCHCRunner.__new__(PCHCRunner)
+    runner.device, runner.env = "cuda:1", object()
+    assert torch.equal(runner.training_state()["cuda_rng"], torch.tensor([7])) and reads == ["cuda:1"]
+    restored = []
+    monkeypatch.setattr(torch.cuda, "set_rng_state", lambda state, device: restored.append((state.tolist(), device)))
+    runner.restore_training_state({"training_state": {"cuda_rng": torch.tensor([7])}})
+    runner.restore_training_state({"training_state": {"cuda_rng": [torch.tensor([5]), torch.tensor([6])]}})  # older
+    assert restored == [([7], "cuda:1"), ([6], "cuda:1")]
+
+
+def test_training_leaves_the_process_group(monkeypatch):
+    from pchc_rsl import distributed
+
+    calls = []
+    monkeypatch.setattr(torch.distributed, "is_initialized", lambda: True)
+    monkeypatch.setattr(torch.distributed, "destroy_process_group", lambda: calls.append("destroy"))
+    distributed.shutdown_process_group()
+    assert calls == ["destroy"]
+
+
+def test_a_failing_rank_other_than_0_leaves_rank_0s_run_folder_alone(tmp_path, monkeypatch):
+    """Rank 0 has written config.json (no checkpoint yet) when rank 1 fails: rank 1 removes nothing; a failing
+    rank 0 cleans up its own folder, as a single process does."""
+    import argparse
+
+    import pytest
+
+    from pchc_rsl import build
+    from pchc_rsl.cli import train
+    from pchc_rsl.configs import task_config
+
+    def failing(*args, **kwargs):
+        raise ValueError("this rank failed")
+
+    monkeypatch.setattr(build, "make_runner", failing)
+    monkeypatch.setattr(train, "_stop_on_signals", lambda: None)
+    args = argparse.Namespace(threads=None, verbose=False, resume=None, init_from=None)
+    for rank, kept in (("1", True), ("0", False)):
+        folder = tmp_path / f"run{rank}"
+        folder.mkdir()
+        (folder / "config.json").write_text("{}")
+        monkeypatch.setenv("WORLD_SIZE", "2")
+        monkeypatch.setenv("RANK", rank)
+        with pytest.raises(SystemExit, match="this rank failed"):
+            train.train(task_config("toy"), {}, str(folder), args)
+        assert (folder / "config.json").exists() == kept, rank

@@ -189,7 +189,7 @@ def test_silent_groups_are_decided_over_all_ranks(alg, monkeypatch):
     rank is played by a recorder standing in for torch.distributed.all_reduce."""
     alg.group_min[:] = torch.tensor([0.0, -1.0, -2.0])
     alg.group_max[:] = torch.tensor([0.0, 1.0, 2.0])
-    alg.terminated_in_rollout = False
+    alg.terminated_in_rollout = torch.tensor(False)
     assert alg.silent_groups().tolist() == [True, False, False]
     other = {"min": torch.tensor([-0.5, -1.0, -1.0]), "max": torch.tensor([0.5, 0.5, 1.0]), "terminated": 1.0}
     calls = []

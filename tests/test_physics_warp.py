@@ -42,6 +42,52 @@ def test_warp_backend_follows_c_mujoco_through_pushes_resets_and_randomisation()
         torch.testing.assert_close(reward_w, reward_c, atol=2e-3, rtol=1e-3)
     assert (c.pushes.max_deviation[[0, 2, 3]] > 0).all()  # the pushes happened
     assert c.episode_length_buf[1] == 10 and w.episode_length_buf[1] == 10  # and the reset
+    # with Warp's solver at 10 / 20 iterations (C MuJoCo at 100 / 50), inside the buffers sized for the G1
+    from pchc_rsl.envs.physics_warp import CONSTRAINTS_PER_ENV
+
+    report = w.physics_report()
+    assert w.physics.wp_model.opt.iterations == 10 and w.physics.wp_model.opt.ls_iterations == 20
+    assert c.physics.models[0].opt.iterations == 100
+    assert 0 < report["max_constraint_rows"] <= CONSTRAINTS_PER_ENV and 0 < report["max_solver_iterations"] <= 10
+    assert report["max_contacts"] > 0
+    assert w.physics_report()["max_constraint_rows"] == 0  # the peaks start over at every report
+
+
+def test_an_overflowing_constraint_buffer_stops_with_what_to_raise():
+    """Standing robots need about 30 constraint rows each; 4 overflow, and the report says which buffer."""
+    from pchc_rsl.envs.physics_warp import PhysicsOverflow, WarpMuJoCo
+    from pchc_rsl.robots.g1.constants import WALK_JOINTS
+    from pchc_rsl.robots.g1.model import build_g1_model, default_joint_positions
+
+    model = build_g1_model(list(WALK_JOINTS), 0.005)
+    physics = WarpMuJoCo(model, 2, 2, device="cpu", constraints_per_env=4)
+    qpos = torch.zeros(2, model.nq, dtype=torch.float64)
+    qpos[:, 2], qpos[:, 3] = 0.76, 1.0
+    qpos[:, 7:] = torch.tensor(default_joint_positions(list(WALK_JOINTS)), dtype=torch.float64)
+    physics.set_qpos_qvel(torch.arange(2), qpos, torch.zeros(2, model.nv, dtype=torch.float64))
+    physics.step(qpos[:, 7:].float())
+    with pytest.raises(PhysicsOverflow, match="NEFC .*constraints_per_env"):
+        physics.overflow_report()
+
+
+def test_torch_views_and_streams_are_made_once(monkeypatch):
+    """After construction, steps, resets and sanitising never call wp.to_torch (each call builds a new tensor)."""
+    import warp as wp
+
+    from pchc_rsl.envs.physics_warp import WarpMuJoCo
+    from pchc_rsl.robots.g1.constants import WALK_JOINTS
+    from pchc_rsl.robots.g1.model import build_g1_model
+
+    physics = WarpMuJoCo(build_g1_model(list(WALK_JOINTS), 0.005), 2, 2, device="cpu")
+    calls = []
+    to_torch = wp.to_torch
+    monkeypatch.setattr(wp, "to_torch", lambda *a, **k: (calls.append(1), to_torch(*a, **k))[1])
+    qpos, qvel = physics.qpos.double().clone(), physics.qvel.double().clone()
+    physics.step(torch.zeros(2, physics.model.nu))
+    physics.set_qpos_qvel(torch.tensor([1]), qpos[1:], qvel[1:])
+    physics.sanitize(torch.tensor([True, False]))
+    physics.overflow_report()
+    assert calls == []
 
 
 def test_every_field_in_which_the_variants_differ_is_batched_per_world():

@@ -5,7 +5,7 @@
 
 For each N, in the same process: a PCHC runner on the task (randomised envs, as in training) runs warm-up and
 timed iterations of rsl-rl's loop (rollout of num_steps_per_env steps: act, env.step, process_env_step; then
-compute_returns and the PPO update), collection and learning timed apart. Two physics limits of the same model
+compute_returns and the PPO update), collection and learning timed apart; with ``--profile``, where each phase's time goes (cProfile, by own time). Two physics limits of the same model
 variants and thread count (or device), the backend's step alone for as many policy steps: "standing" from standing
 states at the default pose (robots at rest: the cheapest contacts), and "replay" from the rollout's own start states
 with the controls the policy sent (the physics work training really asked for). Prints env steps per second of
@@ -35,7 +35,7 @@ def sync(device: str) -> None:
 
 
 def timed_iteration(runner, record: list | None = None) -> tuple[float, float]:
-    """One iteration of OnPolicyRunner.learn's body; (collection s, learning s). With ``record``, appends the
+    """One iteration of PCHCRunner.learn's body (without writing logs); (collection s, learning s). With ``record``, appends the
     joint state (qpos, qvel) at the start and every control the env sent to the physics."""
     alg, env = runner.alg, runner.env
     if record is not None:
@@ -45,20 +45,56 @@ def timed_iteration(runner, record: list | None = None) -> tuple[float, float]:
     obs = env.get_observations().to(runner.device)
     sync(runner.device)
     start = time.perf_counter()
+    obs = runner.rollout(obs)  # the loop's own rollout: act, env step, storage, NaN check, episode book-keeping
+    sync(runner.device)
+    collected = time.perf_counter()
     with torch.inference_mode():
-        for _ in range(runner.cfg["num_steps_per_env"]):
-            actions = alg.act(obs)
-            obs, rewards, dones, extras = env.step(actions.to(env.device))
-            obs, rewards, dones = obs.to(runner.device), rewards.to(runner.device), dones.to(runner.device)
-            alg.process_env_step(obs, rewards, dones, extras)
-        sync(runner.device)
-        collected = time.perf_counter()
         alg.compute_returns(obs)
     alg.update()
+    runner.logger.flush_finished_episodes()
+    runner.logger.ep_extras.clear()
     sync(runner.device)
     if record is not None:
         del env.physics.step  # back to the class' method
     return collected - start, time.perf_counter() - collected
+
+
+def profile_iteration(runner, top: int) -> None:
+    """One more iteration under cProfile, collection and learning apart: the ``top`` functions by own time, each
+    phase's total, and the physics' share of collection."""
+    import cProfile
+    import pstats
+
+    profiles = {"collection": cProfile.Profile(), "learning": cProfile.Profile()}
+    obs = runner.env.get_observations()
+    profiles["collection"].enable()
+    obs = runner.rollout(obs)
+    profiles["collection"].disable()
+    profiles["learning"].enable()
+    with torch.inference_mode():
+        runner.alg.compute_returns(obs)
+    runner.alg.update()
+    profiles["learning"].disable()
+    runner.logger.flush_finished_episodes()
+    runner.logger.ep_extras.clear()
+    for phase, profile in profiles.items():
+        stats = pstats.Stats(profile)
+        total = stats.total_tt
+        print(f"-- {phase}: {total:.2f} s under the profiler; top {top} by own time (s, share, calls, function)")
+        rows = sorted(stats.stats.items(), key=lambda item: item[1][2], reverse=True)[:top]
+        for (filename, line, name), (_, calls, own, cumulative, _) in rows:
+            where = f"{filename.rsplit('/', 2)[-2]}/{filename.rsplit('/', 1)[-1]}:{line}" if line else filename
+            print(f"   {own:7.3f} {own / total:6.1%} {calls:>7} {name} ({where})")
+        by_caller = {}
+        for (filename, line, name), (_, _, own, cumulative, _) in stats.stats.items():
+            for part in ("physics.py", "g1_rewards.py", "g1_observations.py", "style.py", "discriminator.py",
+                         "pci.py", "g1_symmetry.py", "multi_critic_ppo.py", "ppo.py", "g1_env.py"):
+                if filename.endswith(part) and name in ("step", "compute", "groups", "push", "push_amp", "reward",
+                                                        "update", "act", "process_env_step", "forward",
+                                                        "augment_with_mirror", "compute_returns"):
+                    by_caller[f"{part}:{name}"] = max(by_caller.get(f"{part}:{name}", 0.0), cumulative)
+        shares = ", ".join(f"{k} {v:.2f} s" for k, v in sorted(by_caller.items(), key=lambda kv: -kv[1]))
+        print(f"   inclusive: {shares}")
 
 
 def bare_physics(env, threads: int):
@@ -120,6 +156,8 @@ def main() -> None:
     parser.add_argument("--physics", choices=["mujoco", "warp"], default="mujoco")
     parser.add_argument("--motion-files", nargs="+", metavar="PATH",
                         help="AMP reference motions, as in training (without them the AMP update is not timed)")
+    parser.add_argument("--profile", type=int, default=0, metavar="TOP",
+                        help="also profile one iteration (cProfile) and print the TOP functions of each phase")
     parser.add_argument("--sync-debug", action="store_true",
                         help="on CUDA: also count the host syncs of one more iteration (torch's sync debug mode)")
     parser.add_argument("--configs", nargs="+", default=[""], metavar="'KEY=VALUE ...'",
@@ -143,7 +181,10 @@ def main() -> None:
             apply_overrides(cfg, overrides.split())
             runner = make_runner(cfg)
             runner.alg.train_mode()
+            runner.logger.writer = True  # as when training writes logs: the per-step episode book-keeping runs
             timed_iteration(runner)  # warm-up
+            if args.profile:
+                profile_iteration(runner, args.profile)
             record: list = []
             times = [timed_iteration(runner, record if i == 0 else None) for i in range(args.iterations)]
             collect = statistics.median(t[0] for t in times)

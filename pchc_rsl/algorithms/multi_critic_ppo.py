@@ -12,6 +12,7 @@ from rsl_rl.models import MLPModel
 from rsl_rl.modules import EmpiricalNormalization
 from rsl_rl.utils import reduce_gradients_in_buckets, resolve_class, resolve_obs_groups
 
+from pchc_rsl.algorithms.mirror_loss import SharedPassSymmetry
 from pchc_rsl.amp.style import AMPStyle
 from pchc_rsl.storage import MultiCriticRolloutStorage
 
@@ -54,6 +55,8 @@ class MultiCriticPPO(PPO):
                 "lambda; normalize_advantage_per_mini_batch=True would rescale the weighted sum. Set it to False."
             )
         super().__init__(actor, critic, storage, **kwargs)
+        if self.symmetry is not None:  # the same mirror loss, without a second actor pass per mini-batch
+            self.symmetry = SharedPassSymmetry(**kwargs["symmetry_cfg"])
         self.preference_group = preference_group
         self.task_advantage_weight = task_advantage_weight
         self.num_critics = storage.num_critics
@@ -75,7 +78,8 @@ class MultiCriticPPO(PPO):
         """Per-rollout record of each group's reward range and of terminations (what ``silent_groups`` needs)."""
         self.group_min = torch.full((self.num_critics,), float("inf"), device=self.device)
         self.group_max = torch.full((self.num_critics,), float("-inf"), device=self.device)
-        self.terminated_in_rollout = False
+        self.terminated_in_rollout = torch.zeros((), dtype=torch.bool, device=self.device)
+        """Whether an episode terminated (not timed out) in this rollout: on the device, read once per rollout."""
 
     def silent_groups(self) -> torch.Tensor:
         """[K] bool: groups whose reward said nothing about the actions in this rollout.
@@ -85,7 +89,7 @@ class MultiCriticPPO(PPO):
         terminations is a survival signal and is kept.
         """
         low, high = self.group_min.clone(), self.group_max.clone()
-        terminated = torch.tensor(float(self.terminated_in_rollout), device=self.device)
+        terminated = self.terminated_in_rollout.float()
         if self.is_multi_gpu:  # every rank must drop the same groups, or their averaged gradients mix objectives
             torch.distributed.all_reduce(low, op=torch.distributed.ReduceOp.MIN)
             torch.distributed.all_reduce(high, op=torch.distributed.ReduceOp.MAX)
@@ -131,7 +135,7 @@ class MultiCriticPPO(PPO):
         self.group_max = torch.maximum(self.group_max, self.transition.rewards.amax(dim=0))
         no_time_outs = torch.zeros_like(dones, dtype=torch.bool)
         time_outs = extras["time_outs"].to(self.device).bool() if "time_outs" in extras else no_time_outs
-        self.terminated_in_rollout |= bool((dones.bool() & ~time_outs.view_as(dones)).any())
+        self.terminated_in_rollout |= (dones.bool() & ~time_outs.view_as(dones)).any()
         # Bootstrapping on time-outs, per critic: r_k += gamma * V_k(s_T)
         if "time_outs" in extras:
             self.transition.rewards += self.gamma * self.transition.values * time_outs.unsqueeze(1).float()

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import os
 import re
+import signal
 
 from pchc_rsl.cli import arguments
 from pchc_rsl.evaluation.presets import TASK_EVALUATION, evenly_spaced_preferences
@@ -64,11 +65,12 @@ def main(argv: list[str] | None = None) -> None:
         raise SystemExit(f"{PROG}: give a checkpoint before the KEY=VALUE overrides.")
     if args.video and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
         os.environ.setdefault("MUJOCO_GL", "egl")  # headless rendering; read when mujoco is first imported
+    signal.signal(signal.SIGTERM, _interrupt)  # kill: stop as Ctrl-C does, the finished part stays written
     try:
         task, saved, preferences = check_inputs(args)
         if args.robustness:
             return robustness(args, saved, preferences)
-        from pchc_rsl.evaluation import evaluate_checkpoint
+        from pchc_rsl.evaluation import evaluate_checkpoint, write_outputs
 
         videos = []
         if args.video:
@@ -81,21 +83,35 @@ def main(argv: list[str] | None = None) -> None:
             except RenderingUnavailable as error:
                 raise SystemExit(f"{PROG} --video: {error}") from None
         results, curves, switching = [], {}, None
-        for path in args.checkpoints:
+        evaluation = TASK_EVALUATION[task]
+
+        def write_partial(result, curve, switch):
+            """What finished so far, written (marked partial) so that an interrupt loses only the running part."""
+            curves[result["name"]] = curve
+            write_outputs([*results, result], evaluation, curves, switching or switch, args.output, args.seed,
+                          args.overrides, partial=True)
+            written_partial.append(result["name"])
+
+        for index, path in enumerate(args.checkpoints):
             result, curve, switch = evaluate_checkpoint(
                 path, saved[path], preferences, num_envs=args.num_envs, episodes=args.episodes, seed=args.seed,
                 episode_length=args.episode_length, switch=args.switch, overrides=args.overrides,
-                verbose=args.verbose, device=args.device, presets=args.push_presets)
+                verbose=args.verbose, device=args.device, presets=args.push_presets, on_preset=write_partial)
             results.append(result)
             curves[result["name"]] = curve
             switching = switching or switch
+            if index < len(args.checkpoints) - 1:
+                write_partial(result, curve, switch)
+    except KeyboardInterrupt:
+        raise SystemExit(f"\n{PROG}: interrupted; " + (
+            f"the part that finished is in {args.output} (results.json and table.md marked partial)"
+            if written_partial else "nothing had finished, nothing written") + ".") from None
     except (ValueError, FileNotFoundError) as error:
         if args.verbose:
             raise
         raise SystemExit(f"{PROG}: {error}") from None
-    from pchc_rsl.evaluation import markdown_table, write_outputs
+    from pchc_rsl.evaluation import markdown_table
 
-    evaluation = TASK_EVALUATION[task]
     written = write_outputs(results, evaluation, curves, switching, args.output, args.seed, args.overrides) + videos
     print(markdown_table(results, evaluation))
     for result in results:
@@ -109,8 +125,17 @@ def main(argv: list[str] | None = None) -> None:
     print(f"{PROG}: wrote " + ", ".join(written))
 
 
+def _interrupt(signum, frame):
+    raise KeyboardInterrupt
+
+
+written_partial: list[str] = []
+"""Names whose finished part was written marked partial in this process (what an interrupt leaves behind)."""
+
+
 def robustness(args, saved: dict, preferences) -> None:
-    """--robustness: each checkpoint under the deployment shifts, into OUTPUT (OUTPUT/NAME with several)."""
+    """--robustness: each checkpoint under the deployment shifts, into OUTPUT (OUTPUT/NAME with several); each
+    condition's results are written as it finishes (marked partial until the last), so an interrupt keeps them."""
     from pchc_rsl.evaluation import default_conditions, run_robustness, write_robustness
 
     for path, config in saved.items():
@@ -122,9 +147,19 @@ def robustness(args, saved: dict, preferences) -> None:
                 raise SystemExit(f"{PROG}: unknown condition(s) {unknown}; the conditions of task "
                                  f"'{config['task']}' are: " + "; ".join(known))
             conditions = [known[name] for name in args.condition]
-        report = run_robustness(path, config, preferences, conditions, args.num_envs, args.episodes, args.seed,
-                                args.overrides, args.verbose, args.device)
         output = args.output if len(saved) == 1 else os.path.join(args.output, os.path.basename(path))
+
+        def write_partial(report, output=output):
+            write_robustness(report, output)
+            written_partial.append(output)
+
+        try:
+            report = run_robustness(path, config, preferences, conditions, args.num_envs, args.episodes, args.seed,
+                                    args.overrides, args.verbose, args.device, on_condition=write_partial)
+        except KeyboardInterrupt:
+            raise SystemExit(f"\n{PROG}: interrupted; " + (
+                f"the conditions that finished are in {output} (robustness.json and .md marked partial)"
+                if written_partial else "no condition had finished, nothing written") + ".") from None
         written = write_robustness(report, output)
         with open(written[1]) as f:
             print(f.read())

@@ -192,11 +192,17 @@ def train(cfg, config: dict, log_dir: str, args) -> None:
     """Build, train, and close with a summary; a failed run that saved no checkpoint leaves no folder behind."""
     from pchc_rsl.build import make_runner
     from pchc_rsl.run_folder import checkpoints_in, first_missing_folder, remove_if_unused
-    from pchc_rsl.distributed import DistributedSetupError
+    from pchc_rsl.distributed import DistributedSetupError, world
     from pchc_rsl.runners import NonFiniteTraining, TrainingInterrupted
     from pchc_rsl.threads import apply_threads
 
     created = first_missing_folder(log_dir)
+    owns_folder = world()[1] == 0  # torchrun: the run folder is rank 0's; a failing rank > 0 leaves it alone
+
+    def clean_up() -> None:
+        if owns_folder:
+            remove_if_unused(log_dir, created)
+
     start = time.time()
     last = None
     _stop_on_signals()
@@ -225,24 +231,24 @@ def train(cfg, config: dict, log_dir: str, args) -> None:
               flush=True)
         runner.learn(cfg.runner.max_iterations)
     except TrainingInterrupted as stop:
-        remove_if_unused(log_dir, created)
+        clean_up()
         print(f"\n{PROG}: interrupted; " + (f"saved {stop.checkpoint}" if stop.checkpoint else "nothing to save."))
         if stop.checkpoint and checkpoints_in(log_dir):
             _summary(cfg, log_dir, stop.checkpoint, start, last=last)
         raise SystemExit(130) from None
     except KeyboardInterrupt:
-        remove_if_unused(log_dir, created)
+        clean_up()
         raise SystemExit(f"\n{PROG}: interrupted before training started; nothing saved.") from None
     except NonFiniteTraining as stop:
-        remove_if_unused(log_dir, created)
+        clean_up()
         raise SystemExit(f"{PROG}: {stop}") from None
     except (ValueError, FileNotFoundError, FileExistsError, ImportError, DistributedSetupError) as error:
-        remove_if_unused(log_dir, created)
+        clean_up()
         if args.verbose:
             raise
         raise SystemExit(f"{PROG}: {error}") from None
     except BaseException:
-        remove_if_unused(log_dir, created)
+        clean_up()
         raise
     _summary(cfg, log_dir, checkpoints_in(log_dir)[-1], start)
 

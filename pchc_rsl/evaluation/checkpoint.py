@@ -7,7 +7,7 @@ import os
 
 from pchc_rsl.evaluation.presets import TASK_EVALUATION, evaluation_preset
 from pchc_rsl.evaluation.report import front_points, front_summary
-from pchc_rsl.evaluation.runs import run_episodes, run_return_episodes, switching_run
+from pchc_rsl.evaluation.runs import run_preference_batch, run_return_episodes, switching_run
 from pchc_rsl.evaluation.statistics import aggregate
 
 TOY_STEPS_PER_SECOND = 10
@@ -58,11 +58,13 @@ def trained_preference(config: dict) -> tuple[float, ...] | None:
 
 def evaluate_checkpoint(path: str, config: dict, preferences, num_envs: int = 64, episodes: int = 2, seed: int = 0,
                         episode_length: float | None = None, switch: bool = False, overrides: list[str] = (),
-                        verbose: bool = False, device: str = "cpu", presets: list[str] | None = None):
+                        verbose: bool = False, device: str = "cpu", presets: list[str] | None = None,
+                        on_preset=None):
     """Every preference under each of the task's push presets, after ``overrides``: one result (rows of metrics per
     preference, the Pareto summary), the step-wise reward curves, the switch run. ``presets`` names other presets
     of the task to play the task's roles in order (``["mild-v1", "strong-v1"]``: metrics still under mild/ and
-    strong/), or fewer (``["mild"]``: the first role only)."""
+    strong/), or fewer (``["mild"]``: the first role only). ``on_preset(result, curves, switched)`` is called with
+    the result so far after each preset but the last (what an interrupted evaluation can still write)."""
     task = config["task"]
     evaluation = TASK_EVALUATION[task]
     name = os.path.basename(os.path.dirname(os.path.abspath(path))) + "/" + os.path.basename(path)
@@ -75,15 +77,20 @@ def evaluate_checkpoint(path: str, config: dict, preferences, num_envs: int = 64
     curves, switched = {}, None
     roles = evaluation.push_presets or [None]
     presets = presets or roles
+    batched = not evaluation.episode_returns  # the G1 envs hold lambda per env: every preference in one batch
     for preset_index, (role, preset) in enumerate(zip(roles, presets)):
-        cfg = evaluation_config(config, preset, num_envs, seed, overrides, device)
+        cfg = evaluation_config(config, preset, num_envs * (len(preferences) if batched else 1), seed, overrides,
+                                device)
         if episode_length is not None:
             cfg.env.episode_length_s = episode_length
         runner, policy = loaded_policy(path, cfg, verbose=verbose)
-        run = run_return_episodes if evaluation.episode_returns else run_episodes
-        for lam in preferences:
-            label = f"{name} {preset or ''} {lam}".replace("  ", " ")
-            finished, curve = run(runner.env, policy, lam, episodes, progress=label)
+        if batched:
+            label = f"{name} {preset or ''} {len(preferences)} preferences x {num_envs} envs".replace("  ", " ")
+            runs = zip(preferences, run_preference_batch(runner.env, policy, preferences, episodes, progress=label))
+        else:
+            runs = ((lam, run_return_episodes(runner.env, policy, lam, episodes, progress=f"{name} {lam}"))
+                    for lam in preferences)
+        for lam, (finished, curve) in runs:
             summary = aggregate(finished)
             if preset is not None:
                 metrics[lam].update({f"{role}/{k}": v for k, v in summary.items()})
@@ -93,15 +100,26 @@ def evaluate_checkpoint(path: str, config: dict, preferences, num_envs: int = 64
                 if lam in curve_prefs:
                     curves[lam] = curve
         if preset_index == 0 and switch and fixed is None:
+            if batched:  # the switch run is one preference pair on num_envs envs
+                cfg.num_envs = num_envs
+                runner, policy = loaded_policy(path, cfg, verbose=verbose)
             env = runner.env
             switched = switching_run(env, policy, (0.0, 1.0), (1.0, 0.0), env.max_episode_length // 2)
             switched["objectives"] = list(env.cfg.objective_names)
+        if on_preset is not None and preset_index < len(roles) - 1:
+            on_preset(_result(name, path, preferences, metrics, counts, evaluation, roles[:preset_index + 1],
+                              presets[:preset_index + 1]), curves, switched)
+    return _result(name, path, preferences, metrics, counts, evaluation, roles, presets), curves, switched
+
+
+def _result(name, path, preferences, metrics, counts, evaluation, roles, presets) -> dict:
+    """The result of the presets run so far: rows per preference and the Pareto summary."""
     rows = [{"preference": list(lam), "metrics": metrics[lam], "episodes": counts[lam]} for lam in preferences]
     result = {"name": name, "checkpoint": os.path.abspath(path), "rows": rows,
               "push_presets": {role: {"preset": preset, "speed_window": evaluation.pushes.get(preset)}
                                for role, preset in zip(roles, presets) if role is not None}}
     result["front"] = front_summary(front_points(rows, evaluation), evaluation)
-    return result, curves, switched
+    return result
 
 
 def load_policy(path: str, num_envs: int, seed: int, episode_length_s: float | None, push_every: float | None,

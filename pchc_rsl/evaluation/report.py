@@ -62,18 +62,21 @@ def format_metric(value: float, interval: list[float] | None = None, key: str = 
     return f"{value:.{digits}f} ± {(interval[1] - interval[0]) / 2:.{digits}f}"
 
 
-def write_outputs(results, evaluation, curves, switching, output: str, seed: int, overrides: list[str] = ()
-                  ) -> list[str]:
-    """results.json (strict JSON: null where a metric is undefined), table.md and the plots; the paths written."""
+def write_outputs(results, evaluation, curves, switching, output: str, seed: int, overrides: list[str] = (),
+                  partial: bool = False) -> list[str]:
+    """results.json (strict JSON: null where a metric is undefined), table.md and the plots; the paths written.
+    ``partial``: an interrupted evaluation's finished part, marked so in both files."""
     os.makedirs(output, exist_ok=True)
     path = os.path.join(output, "results.json")
     with open(path, "w") as f:
         json.dump(_finite_or_null({"table": evaluation.table, "seed": seed, "overrides": list(overrides),
-                                   "results": results,
+                                   "partial": partial, "results": results,
                                    "switching": _switching_json(switching)}), f, indent=2, allow_nan=False)
     written = [path]
     path = os.path.join(output, "table.md")
     with open(path, "w") as f:
+        if partial:
+            f.write("**Partial**: the evaluation was interrupted; what finished is below.\n\n")
         f.write(markdown_table(results, evaluation))
     written.append(path)
     written.append(plot_pareto(results, evaluation, os.path.join(output, "pareto.png")))

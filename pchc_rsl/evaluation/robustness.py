@@ -89,15 +89,24 @@ def headline(task: str, rows: list[dict] | None = None) -> list[tuple[str, str]]
 
 
 def run_robustness(path: str, config: dict, preferences, conditions: list[Condition], num_envs: int, episodes: int,
-                   seed: int, overrides: list[str] = (), verbose: bool = False, device: str = "cpu") -> dict:
+                   seed: int, overrides: list[str] = (), verbose: bool = False, device: str = "cpu",
+                   on_condition=None) -> dict:
     """Each condition's metrics at every preference, under the task's first push preset (mild) with the
-    condition's overrides after the user's. Returns {"task", "conditions", "rows"}."""
+    condition's overrides after the user's. Returns {"task", "conditions", "rows"}; ``on_condition(report)`` is
+    called after each condition with the report of the conditions finished so far (marked ``"partial": true``
+    until the last), so that an interrupted run leaves them written."""
     from pchc_rsl.evaluation.checkpoint import evaluate_checkpoint
     from pchc_rsl.evaluation.presets import TASK_EVALUATION
 
     evaluation = TASK_EVALUATION[config["task"]]
     presets = evaluation.push_presets[:1] or None
-    rows = []
+    rows, done = [], []
+
+    def report(partial: bool) -> dict:
+        return {"task": config["task"], "checkpoint": os.path.abspath(path),
+                "objectives": list(config["env"]["objective_names"]),
+                "conditions": [c.name for c in done], "rows": list(rows), "partial": partial}
+
     for condition in conditions:
         print(f"robustness: {condition.name} ({' '.join(condition.overrides) or 'the evaluation preset'})",
               flush=True)
@@ -107,9 +116,10 @@ def run_robustness(path: str, config: dict, preferences, conditions: list[Condit
         for row in result["rows"]:
             rows.append({"condition": condition.name, "overrides": condition.overrides,
                          "preference": row["preference"], "episodes": row["episodes"], "metrics": row["metrics"]})
-    return {"task": config["task"], "checkpoint": os.path.abspath(path),
-            "objectives": list(config["env"]["objective_names"]),
-            "conditions": [c.name for c in conditions], "rows": rows}
+        done.append(condition)
+        if on_condition is not None and len(done) < len(conditions):
+            on_condition(report(partial=True))
+    return report(partial=False)
 
 
 def robustness_markdown(report: dict) -> str:
@@ -121,6 +131,9 @@ def robustness_markdown(report: dict) -> str:
     cell = {(r["condition"], tuple(r["preference"])): r for r in report["rows"]}
     lines = [f"Deployment shifts of {report['checkpoint']} ({report['task']}); mean ± 95% interval half-width, "
              "rates with the Wilson 95% interval", ""]
+    if report.get("partial"):
+        lines[1:1] = ["", f"**Partial**: interrupted after {len(report['conditions'])} condition(s); the others did "
+                      "not run."]
     for key, title in headline(report["task"], report["rows"]):
         lines += [f"### {title}", "",
                   f"| Condition \\ lambda ({', '.join(report.get('objectives') or ['obj 1', 'obj 2'])}) | "

@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-import sys
-
 import numpy as np
 import torch
+
+from pchc_rsl.evaluation.progress import Progress
 
 
 def run_episodes(env, policy, preference, episodes: int, progress: str = "") -> tuple[list[dict], np.ndarray]:
@@ -13,41 +13,49 @@ def run_episodes(env, policy, preference, episodes: int, progress: str = "") -> 
 
     Returns one metric dict per finished episode and the mean per-step reward groups [T, 1 + m] of the first
     episode round (for step-wise curves)."""
+    return run_preference_batch(env, policy, [preference], episodes, progress)[0]
+
+
+def run_preference_batch(env, policy, preferences, episodes: int, progress: str = "") -> list[tuple[list[dict],
+                                                                                                np.ndarray]]:
+    """Every preference at once: the envs split into len(preferences) equal blocks, block k holding preferences[k]
+    (lambda is per env), rolled until every env finished ``episodes`` episodes. One batch of P x n envs steps the
+    physics as much as P runs of n envs, with a P-th of the steps' fixed costs.
+
+    Returns, per preference, its finished episodes' metric dicts and its envs' mean per-step reward groups
+    [T, 1 + m] over the first episode round."""
+    count = len(preferences)
+    if env.num_envs % count:
+        raise ValueError(f"{env.num_envs} envs cannot be split evenly among {count} preferences.")
+    block = env.num_envs // count
+    owner = torch.arange(env.num_envs) // block  # [N] the preference index of each env
     finished = torch.zeros(env.num_envs, dtype=torch.long)
-    results, curve = [], []
+    results: list[list[dict]] = [[] for _ in preferences]
+    curves: list[list[np.ndarray]] = [[] for _ in preferences]
     steps = 0
-    total = episodes * env.max_episode_length
+    meter = Progress(progress, episodes * env.max_episode_length) if progress else None
+    lam = torch.tensor([list(p) for p in preferences], dtype=torch.float32).repeat_interleave(block, 0)
     with torch.inference_mode():  # the env's buffers are inference tensors once stepped in this mode
-        env.set_preference(preference)
+        env.set_preference(lam if count > 1 else preferences[0])
         env.reset()
         obs = env.get_observations()
         while (finished < episodes).any():
             obs, _, _, extras = env.step(policy(obs))
             if steps < env.max_episode_length:
-                curve.append(extras["reward_groups"].mean(0).numpy())
+                means = extras["reward_groups"].reshape(count, block, -1).mean(1).numpy()
+                for k in range(count):
+                    curves[k].append(means[k])
             steps += 1
             done = extras["episode_metrics"]
             for row, env_id in enumerate(done["env_ids"].tolist()):
                 if finished[env_id] < episodes:
-                    results.append({k: float(v[row]) for k, v in done.items() if k != "env_ids"})
+                    results[int(owner[env_id])].append({k: float(v[row]) for k, v in done.items() if k != "env_ids"})
                     finished[env_id] += 1
-            if progress and steps % 25 == 0:
-                _progress(progress, min(steps, total), total)
-    if progress:
-        _progress(progress, total, total, end=True)
-    return results, np.array(curve)
-
-
-def _progress(label: str, done: int, total: int, end: bool = False) -> None:
-    """A bar redrawn in place on a terminal; in a log file (not a terminal) only the finished line."""
-    if not end and not sys.stderr.isatty():
-        return
-    width = 30
-    filled = int(width * done / max(total, 1))
-    sys.stderr.write(f"\r{label} [{'#' * filled}{'.' * (width - filled)}] {done}/{total}")
-    if end:
-        sys.stderr.write("\n")
-    sys.stderr.flush()
+            if meter is not None and steps % 10 == 0:
+                meter.update(steps)
+    if meter is not None:
+        meter.finish()
+    return [(results[k], np.array(curves[k])) for k in range(count)]
 
 
 def run_return_episodes(env, policy, preference, episodes: int, progress: str = "") -> tuple[list[dict], np.ndarray]:
@@ -75,7 +83,7 @@ def run_return_episodes(env, policy, preference, episodes: int, progress: str = 
                     finished[env_id] += 1
             sums[dones.bool()] = 0.0
     if progress:
-        _progress(progress, 1, 1, end=True)
+        Progress(progress, 1).finish()
     return results, np.array(curve)
 
 

@@ -39,6 +39,49 @@ class IterationLogger(Logger):
         self.verbose = verbose
         self.guard = guard
         self.iteration_times: list[float] = []
+        self.physics_stats: dict[str, float] = {}
+        """The env's physics report of the last rollout (``env.physics_report()``), written as ``Physics/<key>``."""
+        self._finished_steps: list[tuple[torch.Tensor, list[torch.Tensor]]] = []
+        """Per env step since the last flush: which envs finished an episode, and the running sums at that step."""
+
+    def process_env_step(self, rewards: torch.Tensor, dones: torch.Tensor, extras: dict,
+                         intrinsic_rewards: torch.Tensor | None = None) -> None:
+        """rsl-rl's book-keeping of finished episodes, kept on the device: rsl-rl finds the finished envs and copies
+        their sums to the host at every step (three host syncs); here each step records its finished-episode
+        values and mask, and ``flush_finished_episodes`` moves them to the buffers once per iteration, in the same
+        order (step by step, env by env)."""
+        if self.writer is None:
+            return
+        if "episode" in extras:
+            self.ep_extras.append(extras["episode"])
+        elif "log" in extras:
+            self.ep_extras.append(extras["log"])
+        sums = [self.cur_reward_sum, self.cur_episode_length]
+        if intrinsic_rewards is not None:
+            self.cur_ereward_sum += rewards
+            self.cur_ireward_sum += intrinsic_rewards
+            self.cur_reward_sum += rewards + intrinsic_rewards
+            sums += [self.cur_ereward_sum, self.cur_ireward_sum]
+        else:
+            self.cur_reward_sum += rewards
+        self.cur_episode_length += 1
+        finished = dones.reshape(-1) > 0
+        self._finished_steps.append((finished, [s.clone() for s in sums]))
+        for s in sums:
+            s.masked_fill_(finished, 0)
+
+    def flush_finished_episodes(self) -> None:
+        """Move the episodes that finished since the last flush into rsl-rl's reward and length buffers."""
+        if not self._finished_steps:
+            return
+        finished = torch.stack([mask for mask, _ in self._finished_steps])  # [T, N]
+        columns = zip(*(values for _, values in self._finished_steps))
+        buffers = [self.rewbuffer, self.lenbuffer]
+        if len(self._finished_steps[0][1]) == 4:
+            buffers += [self.erewbuffer, self.irewbuffer]
+        for buffer, column in zip(buffers, columns):
+            buffer.extend(torch.stack(column)[finished].cpu().tolist())
+        self._finished_steps.clear()
 
     def init_logging_writer(self) -> None:
         """rsl-rl's, without its 'Storing git diff' prints unless verbose."""
@@ -49,6 +92,7 @@ class IterationLogger(Logger):
             **kwargs) -> None:
         if self.guard is not None:
             self.guard(it, loss_dict)
+        self.flush_finished_episodes()
         losses = {k: v for k, v in loss_dict.items() if "/" not in k}
         diagnostics = {k: v for k, v in loss_dict.items() if "/" in k}
         self._drop_undefined()
@@ -63,6 +107,8 @@ class IterationLogger(Logger):
             section, _, name = key.partition("/")
             tag = f"Routing/{name}" if section == ROUTING_PREFIX else f"Critic/{key}"
             self.writer.add_scalar(tag, value, it)
+        for key, value in self.physics_stats.items():
+            self.writer.add_scalar(f"Physics/{key}", value, it)
         print(line, flush=True)
         if self.verbose:
             print(ANSI_ESCAPE.sub("", block.getvalue()), flush=True)

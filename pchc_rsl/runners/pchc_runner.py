@@ -5,17 +5,19 @@ from __future__ import annotations
 
 import copy
 import os
+import time
 
 import numpy as np
 import torch
+from tensordict import TensorDict
 
 from rsl_rl.env import VecEnv
 from rsl_rl.runners import OnPolicyRunner
 
-from pchc_rsl.distributed import init_process_group, world
+from pchc_rsl.distributed import init_process_group, shutdown_process_group, world
 from pchc_rsl.export import export_onnx
 from pchc_rsl.files import atomic_write
-from pchc_rsl.finite import first_non_finite_tensor, first_non_finite_value
+from pchc_rsl.finite import RolloutNaNCheck, first_non_finite_tensor, first_non_finite_value
 from pchc_rsl.runners.checkpoint import load_checkpoint
 from pchc_rsl.runners.iteration_log import IterationLogger
 
@@ -73,10 +75,10 @@ class PCHCRunner(OnPolicyRunner):
     # ---- training loop additions -------------------------------------------------------------------------------
 
     def learn(self, num_learning_iterations: int, init_at_random_ep_len: bool = False) -> None:
-        """rsl-rl's loop, plus: raise NonFiniteTraining (nothing of the bad iteration saved) and, on Ctrl-C, save
-        the state as it was when the last iteration finished and raise TrainingInterrupted."""
+        """rsl-rl's loop (``_learning_loop``), plus: raise NonFiniteTraining (nothing of the bad iteration saved) and,
+        on Ctrl-C, save the state as it was when the last iteration finished and raise TrainingInterrupted."""
         try:
-            super().learn(num_learning_iterations, init_at_random_ep_len)
+            self._learning_loop(num_learning_iterations, init_at_random_ep_len)
         except KeyboardInterrupt:
             saved = self._save_on_interrupt()
             self.logger.stop_logging_writer()
@@ -86,6 +88,66 @@ class PCHCRunner(OnPolicyRunner):
             raise
         finally:
             self._close_writer()
+            shutdown_process_group()
+
+    def _learning_loop(self, num_learning_iterations: int, init_at_random_ep_len: bool) -> None:
+        """OnPolicyRunner.learn of rsl-rl 5.5, step for step, with the rollout in ``rollout`` (no host sync per
+        step but the env's own)."""
+        if init_at_random_ep_len:
+            self.env.episode_length_buf = torch.randint_like(
+                self.env.episode_length_buf, high=int(self.env.max_episode_length)
+            )
+        obs = self.env.get_observations().to(self.device)
+        self.alg.train_mode()
+        if self.is_distributed:
+            print(f"Synchronizing parameters for rank {self.gpu_global_rank}...")
+            self.alg.broadcast_parameters()
+        self.logger.init_logging_writer()
+        start_it = self.current_learning_iteration
+        total_it = start_it + num_learning_iterations
+        for it in range(start_it, total_it):
+            start = time.time()
+            obs = self.rollout(obs)
+            stop = time.time()
+            collect_time, start = stop - start, stop
+            with torch.inference_mode():
+                self.alg.compute_returns(obs)
+            loss_dict = self.alg.update()
+            learn_time = time.time() - start
+            self.current_learning_iteration = it
+            self.logger.log(
+                it=it, start_it=start_it, total_it=total_it, collect_time=collect_time, learn_time=learn_time,
+                loss_dict=loss_dict, learning_rate=self.alg.learning_rate,
+                action_std=self.alg.get_policy().output_std,
+                rnd_weight=self.alg.rnd.weight if self.cfg["algorithm"].get("rnd_cfg") else None,
+            )
+            if self.logger.writer is not None and it % self.cfg["save_interval"] == 0:
+                self.save(os.path.join(self.logger.log_dir, f"model_{it}.pt"))
+        if self.logger.writer is not None:
+            self.save(os.path.join(self.logger.log_dir, f"model_{self.current_learning_iteration}.pt"))
+            self.logger.stop_logging_writer()
+
+    def rollout(self, obs: TensorDict) -> TensorDict:
+        """Collect ``num_steps_per_env`` transitions from ``obs`` (act, env step, store, book-keeping); the last
+        observations. rsl-rl's per-step NaN check and episode book-keeping read the device at every step; here
+        both stay on the device until the rollout ends (RolloutNaNCheck, IterationLogger), so a GPU rollout waits
+        on the host only where the env itself does."""
+        nan_check = RolloutNaNCheck() if self.cfg.get("check_for_nan", True) else None
+        rnd = bool(self.cfg["algorithm"].get("rnd_cfg"))
+        with torch.inference_mode():
+            for _ in range(self.cfg["num_steps_per_env"]):
+                actions = self.alg.act(obs)
+                obs, rewards, dones, extras = self.env.step(actions.to(self.env.device))
+                if nan_check is not None:
+                    nan_check.add(obs, rewards, dones)
+                obs, rewards, dones = obs.to(self.device), rewards.to(self.device), dones.to(self.device)
+                self.alg.process_env_step(obs, rewards, dones, extras)
+                self.logger.process_env_step(rewards, dones, extras, self.alg.intrinsic_rewards if rnd else None)
+            if nan_check is not None:
+                nan_check.raise_if_any()
+        if hasattr(self.env, "physics_report"):  # once per rollout: buffer peaks, and a clear stop on an overflow
+            self.logger.physics_stats = self.env.physics_report()
+        return obs
 
     def _close_writer(self) -> None:
         """Flush and close the event files, also when training stopped early."""
@@ -179,8 +241,8 @@ class PCHCRunner(OnPolicyRunner):
         name, key, position, has_gauss, cached_gaussian = np.random.get_state()
         numpy_rng = [name, torch.from_numpy(key.astype(np.int64)), int(position), int(has_gauss), float(cached_gaussian)]
         state = {"torch_rng": torch.get_rng_state(), "numpy_rng": numpy_rng}
-        if torch.cuda.is_available():
-            state["cuda_rng"] = torch.cuda.get_rng_state_all()
+        if torch.device(self.device).type == "cuda":  # this process' GPU only: reading every GPU's state waits on each
+            state["cuda_rng"] = torch.cuda.get_rng_state(self.device)
         if hasattr(self.env, "state_dict"):
             state["env"] = self.env.state_dict()
         return state
@@ -197,8 +259,11 @@ class PCHCRunner(OnPolicyRunner):
         if "numpy_rng" in state:
             name, key, position, has_gauss, cached_gaussian = state["numpy_rng"]
             np.random.set_state((name, key.numpy().astype(np.uint32), position, has_gauss, cached_gaussian))
-        if "cuda_rng" in state and torch.cuda.is_available():
-            torch.cuda.set_rng_state_all(state["cuda_rng"])
+        if "cuda_rng" in state and torch.device(self.device).type == "cuda":
+            saved = state["cuda_rng"]  # one GPU's state; older checkpoints hold a list, one per GPU
+            index = torch.device(self.device).index or 0
+            saved = saved[min(index, len(saved) - 1)] if isinstance(saved, (list, tuple)) else saved
+            torch.cuda.set_rng_state(saved, self.device)
         if "env" in state and hasattr(self.env, "load_state_dict"):
             self.env.load_state_dict(state["env"])
 
