@@ -62,7 +62,8 @@ def test_same_loss_and_gradients_as_rsl_rls_second_pass(walk_runner):
 
 def test_a_whole_update_moves_the_weights_as_with_rsl_rls_mirror_loss(walk_runner):
     """Same weights, same rollout, same random streams: one PPO update (3 epochs, mirrored mini-batches)
-    each way ends at the same weights and losses (to float rounding). AMP is off here (no motion files)."""
+    each way ends at the same losses and weights (to float rounding, within 1% of each tensor's step). AMP is off here
+    (no motion files)."""
     alg = walk_runner.alg
     start, rng, learning_rate = copy.deepcopy(alg.save()), torch.get_rng_state(), alg.learning_rate
     storage, ours = copy.deepcopy(alg.storage), alg.symmetry
@@ -85,8 +86,16 @@ def test_a_whole_update_moves_the_weights_as_with_rsl_rls_mirror_loss(walk_runne
     for key in ("surrogate", "value", "symmetry"):
         if key in losses_theirs:
             assert losses_ours[key] == pytest.approx(losses_theirs[key], rel=1e-4, abs=1e-6), key
+    # Adam divides each gradient by the root of its second moment, so where a gradient is near zero a difference of
+    # float rounding becomes a visible fraction of the learning rate: each tensor is compared against the step it took
+    # (a mirror loss computed differently changes the step itself, by the order of the step).
     moved = False
     for name, value in actor_theirs.items():
-        torch.testing.assert_close(actor_ours[name], value, rtol=1e-4, atol=1e-6, msg=name)
-        moved |= not torch.equal(value, start["actor_state_dict"][name]) if name in start["actor_state_dict"] else False
+        before = start["actor_state_dict"].get(name)
+        if before is None or not torch.is_floating_point(value):
+            torch.testing.assert_close(actor_ours[name], value, msg=name)
+            continue
+        step = (value - before).abs().max().item()
+        assert (actor_ours[name] - value).abs().max().item() <= 1e-2 * step + 1e-7, name
+        moved |= step > 0
     assert moved
