@@ -195,14 +195,14 @@ def test_interactive_viewer_under_xvfb_shows_the_robot_and_closes(walk_checkpoin
         viewer = subprocess.Popen([sys.executable, "-m", "pchc_rsl.cli.play", walk_checkpoint, "--seconds", "4"],
                                   env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         blank = np.asarray(ImageGrab.grab(xdisplay=display))
-        shot, deadline = blank, time.time() + 60
+        shot, deadline = blank, time.time() + 300  # starting takes minutes on a busy 2-core machine
         while viewer.poll() is None and time.time() < deadline:
             time.sleep(1.0)
             shot = np.asarray(ImageGrab.grab(xdisplay=display))
             if shot.std() > 20:
                 break
         imageio.v2.imwrite(tmp_path / "viewer.png", shot)
-        stdout, stderr = viewer.communicate(timeout=120)
+        stdout, stderr = viewer.communicate(timeout=600)
     finally:
         server.terminate()
         server.wait()

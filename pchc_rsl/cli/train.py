@@ -260,7 +260,8 @@ def _continue_env_progress(runner, path: str) -> None:
     from pchc_rsl.runners import load_checkpoint
 
     state = (load_checkpoint(path).get("training_state") or {}).get("env") or {}
-    progress = {k: v for k, v in state.items() if k not in ("generator", "rng")}
+    progress = {k: v for k, v in state.items()  # numbers only: per-env state (the toy's positions) is not progress
+                if k not in ("generator", "rng") and isinstance(v, (int, float)) and not isinstance(v, bool)}
     if progress and hasattr(runner.env, "load_state_dict"):
         runner.env.load_state_dict(progress)
         print(f"{PROG}: the env continues the checkpoint's progress: "

@@ -165,6 +165,13 @@ def colour_range(key: str, values: np.ndarray) -> tuple[float, float]:
     return 0.0, max(top, COLOUR_RANGE_FLOOR.get(key, 0.0)) or 1.0
 
 
+def cell_text(key: str, value: float) -> str:
+    """A heatmap cell's figure: rates in % to one decimal (100 as 100), other figures to three significant digits."""
+    if key in ("fall_rate", "success"):
+        return "100" if value >= 99.95 else f"{value:.1f}"
+    return f"{value:.0f}" if abs(value) >= 100 else f"{value:.3g}"
+
+
 def plot_robustness(report: dict, path: str) -> str:
     """Heatmap(s) preference x condition of the headline figures, under a title naming the policy, each with its
     own colour scale from 0 (rates 0-100%)."""
@@ -194,8 +201,7 @@ def plot_robustness(report: dict, path: str) -> str:
                 if np.isfinite(values[i, j]):
                     r, g, b, _ = image.cmap(image.norm(values[i, j]))
                     ink = "k" if 0.299 * r + 0.587 * g + 0.114 * b > 0.5 else "w"
-                    ax.text(j, i, f"{values[i, j]:.0f}" if abs(values[i, j]) >= 10 else f"{values[i, j]:.2f}",
-                            ha="center", va="center", fontsize=6, color=ink)
+                    ax.text(j, i, cell_text(key, values[i, j]), ha="center", va="center", fontsize=6, color=ink)
         ax.set_title(title, fontsize=9)
         ax.set_xlabel("lambda (" + ", ".join(report.get("objectives") or ["obj 1", "obj 2"]) + ")", fontsize=7)
         fig.colorbar(image, ax=ax, shrink=0.8)
