@@ -223,8 +223,10 @@ def summary_lines(report: dict, report_file: str | None) -> list[str]:
     lines = [f"{PROG}: ended in {report['final_mode'].lower()}{reason} after {report['policy_seconds']:.1f} s of policy"]
     stream = report.get("lowcmd")
     if stream is not None:
+        priority = ("real-time priority" if stream["realtime_priority"] else
+                    "normal priority: root or CAP_SYS_NICE gives its thread real-time priority")
         lines.append(f"  LowCmd: {report['messages_sent']} written at {stream['rate_hz']:g} Hz ({stream['loop_overruns']}"
-                     f" late ticks, worst {stream['loop_worst_late_ms']:.1f} ms); LowState: "
+                     f" late ticks, worst {stream['loop_worst_late_ms']:.1f} ms; {priority}); LowState: "
                      f"{report['messages_received']} received")
     else:
         lines.append(f"  LowCmd: {report['messages_sent']} applied; LowState: {report['messages_received']} read")

@@ -61,6 +61,7 @@ class SafetyStateMachine:
         self.stand_kp = MOTOR_STAND_KP.copy() if stand_kp is None else np.asarray(stand_kp, float)
         self.stand_kd = MOTOR_STAND_KD.copy() if stand_kd is None else np.asarray(stand_kd, float)
         self.target: np.ndarray | None = None  # the position targets last sent [29]
+        self.collapse_error, self.collapse_s = COLLAPSE_ERROR, COLLAPSE_S
         self.giving_way_since: float | None = None
         self.default_pos = MOTOR_DEFAULT_POS.copy() if default_pos is None else np.asarray(default_pos, float)
         self.policy_index = np.arange(NUM_MOTORS) if policy_index is None else np.asarray(policy_index)
@@ -79,15 +80,16 @@ class SafetyStateMachine:
         if mode is Mode.HOLD and now - self.mode_since < RAMP_S:
             return False  # no hold (and so no policy) before the ramp has finished
         if mode is Mode.RAMP:
-            if state is None:
+            if state is None or now - state.received_at > STALE_S:
                 return False
             self.ramp_from = state.q.copy()
         self.mode, self.mode_since, self.reason = mode, now, reason
         return True
 
     def watchdog(self, state: RobotState | None, now: float) -> str:
-        """Why the robot must be damped now ('' if it need not). Armed once the motors are commanded."""
-        if self.mode in (Mode.WAIT, Mode.DAMPING):
+        """Why the robot must be damped now ('' if it need not). Armed once the motors are driven (from the ramp
+        on): in zero torque there is nothing to stop, and the ramp refuses to start from a stale state."""
+        if self.mode in (Mode.WAIT, Mode.ZERO_TORQUE, Mode.DAMPING):
             return ""
         if state is None or now - state.received_at > STALE_S:
             age = "none" if state is None else f"{(now - state.received_at) * 1000:.0f} ms old"
@@ -108,16 +110,16 @@ class SafetyStateMachine:
             self.giving_way_since = None
             return ""
         error = np.abs(state.q[LOAD_BEARING] - self.target[LOAD_BEARING])
-        if error.max() <= COLLAPSE_ERROR:
+        if error.max() <= self.collapse_error:
             self.giving_way_since = None
             return ""
         if self.giving_way_since is None:
             self.giving_way_since = now
-        if now - self.giving_way_since <= COLLAPSE_S:
+        if now - self.giving_way_since <= self.collapse_s:
             return ""
         joint = MOTOR_JOINTS[int(LOAD_BEARING[np.argmax(error)])]
         return (f"collapse: {joint} {error.max():.2f} rad from its target for {now - self.giving_way_since:.2f} s "
-                f"(bound {COLLAPSE_ERROR} rad for {COLLAPSE_S} s)")
+                f"(bound {self.collapse_error} rad for {self.collapse_s} s)")
 
     def command(self, state: RobotState | None, now: float, policy_targets: np.ndarray | None = None) -> MotorCommand | None:
         """This tick's command (None while waiting for state). ``policy_targets`` [29]: used only in POLICY mode."""

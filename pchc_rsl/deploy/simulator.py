@@ -87,7 +87,8 @@ class G1Simulator:
                                      "a smaller --timestep or softer gains fix this")
         self.steps += 1
         if self.time >= self.hold_up_s:
-            self.lowest = min(self.lowest, float(d.qpos[2]))
+            if self.damped_at is None:
+                self.lowest = min(self.lowest, float(d.qpos[2]))
             if d.qpos[2] < FALL_HEIGHT and self.fell_at is None:
                 self.fell_at = self.time
 
