@@ -27,10 +27,8 @@ def fall_recovery_rewards() -> list[RewardTerm]:
         RewardTerm(R + "action_rate", -0.01),
         RewardTerm(R + "joint_limits", -5.0),
         # objectives, raw; a fall after standing costs 5 of energy return and 10 of disturbance return (it ends
-        # the episode, and with it both costs: without the charge falling was the cheapest answer to a push at
-        # either end). At 5 in both, strong pushes toppled the disturbance end most (88.7% success, 256 episodes);
-        # at 10 (stop 42) it stays up in 91% and the energy grows with lambda_2 at every step. r_disturb charges
-        # the whole-body COM, the point Table I measures.
+        # the episode, and with it both costs): docs/design.md, "Fall costs". r_disturb charges the whole-body COM,
+        # the point Table I measures: docs/design.md, "The COM option of r_disturb".
         RewardTerm(R + "energy", 1.0, group="energy", params={"k_tau": 1e-4, "k_p": 1e-3, "fall_cost": 5.0}),
         RewardTerm(R + "disturbance", 1.0, group="disturbance", params={"fall_cost": 10.0, "com": True}),
     ]
@@ -47,13 +45,13 @@ def fall_recovery_env(fast: bool = False) -> FallRecoveryConfig:
         held_joints=list(FALL_RECOVERY_HELD_JOINTS),  # as the robot holds them (pchc-deploy)
         # pushes test the stood-up robot (r_disturb, COM displacement); HoST trains getting up without pushes. The
         # range spans the calibrated evaluation presets (mild 2.25, strong 2.5 m/s). r_disturb is charged over the
-        # 3 s after a push, the window in which Table I measures the COM displacement (the preset's): over 1 s,
-        # where the COM came to rest was never paid for, and the COM displacement grew with lambda_2 (stop 43).
+        # 3 s after a push, the window in which the evaluation measures the COM displacement: docs/design.md,
+        # "The 3 s disturbance window".
         push=PushConfig(velocity=(0.5, 2.75), only_when_standing=True, window_s=3.0),
         action_delay_s=(0.0, 0.02),  # a robot's 0-20 ms from sensing to actuation
         randomization=RandomizationConfig(added_base_mass=(-1.0, 5.0), actuator_strength=(0.8, 1.1)),
         critic_push_timing=True,  # the critic sees the time left in the push window and to the next push
-        preference_concentration=0.5,  # more training preferences near the ends
+        preference_concentration=0.5,  # more training preferences near the ends (docs/design.md)
         terminate_on_fall=True,
         assist_level_step=0.1,  # HoST: 20 of 200 N per step
     )

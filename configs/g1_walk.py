@@ -15,15 +15,12 @@ def walk_rewards() -> list[RewardTerm]:
     config/g1/env_cfgs.py): tracking weighted 2.0 (std 0.5 and sqrt(0.5)), foot clearance -2.0. mjlab's upright and
     posture terms reward staying up; ``alive`` stands in for them here.
 
-    Gait terms (the walker of stops 14-38 hopped, both feet leaving the ground together 4-10 times a second):
-    legged_gym's air-time term, which charges every swing shorter than 0.3 s and pays longer ones up to 0.5 s
-    (weight 8: at 5 the steps stayed short and quick, 2.6-3.6 touchdowns per foot per second; at 8, 2.0-2.4 within
-    600 iterations), a single-stance term that pays the feet taking turns, and unitree_rl_gym's G1 hip_pos penalty
-    on hip roll and yaw against straddling (``backward_touchdown`` and a task-group ``fall`` cost are left out: in
-    stop 41 they flattened the preferences' gaits, docs/results/g1_retraining.md). Objectives are the paper's
-    equations: r_stride read per stance step and paid at the commanded speed (see g1_rewards.stride), r_disturb with
-    a fall costing 5 (a fall ends the episode, which without it ends r_disturb's cost too, so falling was the
-    cheapest answer to a strong push at the disturbance end)."""
+    Gait terms, against hopping (both feet leaving the ground together): legged_gym's air-time term, which charges
+    every swing shorter than 0.3 s and pays longer ones up to 0.5 s (weight 8; docs/design.md, "Gait terms"), a
+    single-stance term that pays the feet taking turns, and unitree_rl_gym's G1 hip_pos penalty on hip roll and yaw
+    against straddling (``backward_touchdown`` and a task-group ``fall`` cost are left out: docs/design.md). The
+    objectives are the paper's equations: r_stride read per stance step and paid at the commanded speed
+    (docs/design.md, "The stride speed gate"), r_disturb with a fall costing 5 (docs/design.md, "Fall costs")."""
     return [
         RewardTerm(R + "track_lin_vel_xy", 2.0, params={"std": 0.5}),
         RewardTerm(R + "track_lin_vel_xy", 1.0, params={"std": 0.15}),
@@ -49,8 +46,7 @@ def walk_env(fast: bool = False) -> G1EnvConfig:
     """Paper physics: 500 Hz PD, 50 Hz policy. ``fast``: timestep 0.005, decimation 4 (HoST, mjlab)."""
     return G1EnvConfig(
         joints=list(WALK_JOINTS),
-        # the waist and wrists as the robot holds them (pchc-deploy): a walker trained with them welded fell on the
-        # 29-DoF robot in sim-to-sim (docs/results/g1_retraining.md)
+        # the waist and wrists as the robot holds them (pchc-deploy): docs/design.md, "Held joints"
         held_joints=list(WALK_HELD_JOINTS),
         timestep=0.005 if fast else 0.002,
         decimation=4 if fast else 10,

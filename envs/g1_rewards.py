@@ -54,9 +54,7 @@ def single_stance(env, min_command: float = 0.1) -> torch.Tensor:
 def backward_touchdown(env, min_command: float = 0.1) -> torch.Tensor:
     """Touchdowns (count) whose step points backward, along the base heading, while a speed of at least
     ``min_command`` is commanded: short backward shuffles, which r_stride pays nothing but charges nothing either,
-    and which the evaluation counts. Not in the walking config: in stop 41 (run walk-k, with ``fall``) backward
-    touchdowns stayed where they were (0.8-3.5%; the shipped walker 1.5-3.2%) while the preferences' gaits drew
-    together."""
+    and which the evaluation counts. Not in the walking config: docs/design.md, "Gait terms"."""
     moving = env.commands[:, :2].norm(dim=-1) >= min_command
     backward = env.feet.first_contact & (env.feet.step_vector[..., 0] < 0)
     return backward.float().sum(-1) * moving
@@ -133,7 +131,8 @@ def stride(env, along_heading: bool = True, min_command: float = 0.1, speed_std:
     exp(-||v_cmd_xy - v_base_xy||^2 / speed_std^2). Without it longer steps at the same cadence pay more by walking
     faster: the walker trained from scratch on this reading reached 1.5 m/s at (0, 1) when told 0.5 (its forward
     step 0.48 m at 2.9 steps/s). With it, at the commanded speed the reading above holds (the gate is 1), and a
-    longer step can only be bought with a slower cadence, the paper's "longer strides" at a given speed."""
+    longer step can only be bought with a slower cadence, the paper's "longer strides" at a given speed
+    (docs/design.md, "The stride speed gate")."""
     step = env.feet.stance_step  # [N, foot, (forward, lateral)], 0 in the air
     if along_command:
         direction = env.commands[:, :2] / env.commands[:, :2].norm(dim=-1, keepdim=True).clamp(min=1e-6)
@@ -160,13 +159,11 @@ def disturbance(env, vertical: bool = False, fall_cost: float = 0.0, com: bool =
     costs its drop of about 0.5 m on top of the horizontal drift a recovering step also has.
 
     ``fall_cost``: a fall (``env.fell_this_step()``) also costs this much return, once. Without it a fall is the
-    cheapest answer to a strong push under r_disturb alone: the displacement terms stop when the episode ends or,
-    for a fallen robot that is no longer pushed, stay small, so weighting r_disturb more made strong pushes topple
-    the policy more often, the opposite of the paper's Table I (docs/results/g1.md). Not in the paper's equation.
+    cheapest answer to a strong push under r_disturb alone: the displacement terms stop when the episode ends.
+    Not in the paper's equation; why and what it changed: docs/design.md, "Fall costs".
 
     ``com``: x_base is the whole-body COM instead of the pelvis, the point whose displacement Table I reports, so
-    the reward charges what the table measures (in the fall-recovery policies measured so far the two moved within
-    0.04 m of each other after a push; docs/results/g1_retraining.md, "Stop 42")."""
+    the reward charges what the table measures (docs/design.md, "The COM option of r_disturb")."""
     pushes = env.pushes
     position = pushes.com_deviation(env.robot) if com else pushes.deviation(env.robot)
     if vertical:
@@ -187,8 +184,8 @@ def energy(env, k_tau: float, k_p: float, fall_cost: float = 0.0) -> torch.Tenso
     """The paper's r_energy = -k_tau sum_j tau_j^2 - k_p sum_j |dq_j| |tau_j|, averaged over the physics substeps.
 
     ``fall_cost``: as r_disturb's. A fall that ends the episode (``terminate_on_fall``) also ends r_energy's cost,
-    so without it falling after standing is the cheapest way to save energy at lambda = (1, 0): that end stood up
-    through mild pushes in 31% of episodes against 97% at (0.5, 0.5) (stop 40). Not in the paper's equation."""
+    so without it falling after standing is the cheapest way to save energy at lambda = (1, 0). Not in the paper's
+    equation: docs/design.md, "Fall costs"."""
     tau, dq = env.robot.torques_substeps, env.robot.joint_vel_substeps  # [N, K, J]
     per_substep = -k_tau * (tau**2).sum(-1) - k_p * (dq.abs() * tau.abs()).sum(-1)
     return per_substep.mean(dim=1) - charged_fall(env, fall_cost)

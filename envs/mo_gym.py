@@ -6,7 +6,7 @@ to build it from the vector reward. Stepping loops over the copies in Python: MO
 Gymnasium envs, and its own vector wrapper resets one step late (Gymnasium's NEXT_STEP mode), which would put a
 zero-reward transition into every rollout.
 
-Needs the optional extra: ``pip install "pchc-rsl[mo-gym]"``.
+Needs the optional extra: ``pip install -e ".[mo-gym]"``.
 """
 
 from __future__ import annotations
@@ -45,7 +45,7 @@ def make_mo_env(env_id: str, **kwargs):
         import mo_gymnasium
     except ImportError as error:
         raise ImportError(
-            f"The MO-Gymnasium environments need the optional extra: pip install \"pchc-rsl[mo-gym]\" ({error})."
+            f"The MO-Gymnasium environments need the optional extra: pip install -e \".[mo-gym]\" ({error})."
         ) from error
     return mo_gymnasium.make(env_id, **kwargs)
 

@@ -25,7 +25,7 @@ try:
     import warp as wp
 except ImportError as error:  # the optional extra
     raise ImportError(
-        "--physics warp needs MuJoCo Warp: pip install 'pchc-rsl[warp]' (mujoco-warp matching mujoco "
+        "--physics warp needs MuJoCo Warp: pip install -e \".[warp]\" (mujoco-warp matching mujoco "
         f"{mujoco.__version__}). ({error})"
     ) from None
 

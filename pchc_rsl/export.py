@@ -185,3 +185,21 @@ class OnnxPolicy:
                 raise ValueError(
                     f"preference row {row} ({int((~ok).sum())} of {preference.shape[0]} rows are bad): {error}"
                 ) from None
+
+
+def export_checkpoint(checkpoint: str, output: str, verbose: bool = False) -> str:
+    """Rebuild a pchc-train checkpoint's policy from its saved config (on the CPU, one env) and export it to
+    ``output`` with the env's deploy metadata; returns the path written."""
+    from pchc_rsl.build import make_runner, restore_config, saved_config
+    from pchc_rsl.runners import load_checkpoint
+
+    cfg = restore_config(saved_config(checkpoint, load_checkpoint(checkpoint)))
+    cfg.num_envs, cfg.device = 1, "cpu"
+    if hasattr(cfg.env, "curriculum"):
+        cfg.env.curriculum = False  # the deployed action scale is the curriculum's final one, as pchc-eval runs it
+    runner = make_runner(cfg, verbose=verbose)
+    runner.load(checkpoint)
+    metadata = None
+    if hasattr(runner.env, "deploy_metadata"):
+        metadata = {"task": cfg.name, **runner.env.deploy_metadata()}
+    return runner.export_onnx(output, verbose=verbose, metadata=metadata)

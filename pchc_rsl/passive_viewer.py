@@ -1,4 +1,5 @@
-"""MuJoCo's passive viewer, closed so that the process can exit cleanly (pchc-play, the sim-to-sim bridge).
+"""MuJoCo's passive viewer on a running policy, with keys that move lambda, push and reset (pchc-play), closed so
+that the process can exit cleanly (pchc-play, the sim-to-sim bridge).
 
 ``Handle.close()`` only asks the viewer's daemon thread to stop; a process that exits before that thread's render
 loop has finished lets GLFW terminate under a frame still being swapped (GLXBadDrawable and a segfault at exit under
@@ -8,6 +9,11 @@ from __future__ import annotations
 
 import contextlib
 import threading
+import time
+from collections import deque
+
+LAMBDA_STEP = 0.1
+"""How far one key press moves lambda along the simplex."""
 
 
 @contextlib.contextmanager
@@ -24,3 +30,88 @@ def passive_viewer(model, data, **kwargs):
         handle.close()
         for thread in viewer_threads:
             thread.join(timeout=10.0)
+
+
+RIGHT, LEFT, SPACE, BACKSPACE = 262, 263, 32, 259
+"""GLFW key codes of the keys the passive viewer leaves to its user (its letters toggle rendering flags)."""
+KEYS = {RIGHT: "right", LEFT: "left", SPACE: "push", BACKSPACE: "reset"}
+
+
+def key_help(objective_names: list[str]) -> str:
+    first, second = objective_names
+    return f"Left: more {first}\nRight: more {second}\nSpace: push\nBackspace: reset"
+
+
+class LiveControls:
+    """The viewer's keys: queued from the viewer's thread, applied between policy steps on env 0."""
+
+    def __init__(self, env) -> None:
+        self.env, self.pending = env, deque()
+
+    def on_key(self, keycode: int) -> None:
+        if keycode in KEYS:
+            self.pending.append(KEYS[keycode])
+
+    def apply(self) -> bool:
+        """Apply the queued keys; True if any did (the policy then needs fresh observations)."""
+        import torch
+
+        env, changed = self.env, bool(self.pending)
+        while self.pending:
+            action = self.pending.popleft()
+            if action in ("left", "right") and env.num_objectives == 2:
+                t = float(env.preference[0, 1]) + (LAMBDA_STEP if action == "right" else -LAMBDA_STEP)
+                t = min(1.0, max(0.0, round(t / LAMBDA_STEP) * LAMBDA_STEP))
+                env.set_preference(torch.tensor([1.0 - t, t]))
+            elif action == "push":
+                env.pushes.countdown[:] = 1  # the next step pushes, at the preset's strength, in a random direction
+            elif action == "reset":
+                env.reset()
+        return changed
+
+
+def run_viewer(env, policy, preference, seconds: float | None) -> int:
+    """MuJoCo's passive viewer on env 0 in real time until closed (or ``seconds`` of simulation); returns steps."""
+    import mujoco
+    import torch
+
+    from pchc_rsl.envs.g1_render import add_push_arrow, visual_model
+    from pchc_rsl.live_metrics import live_metrics, preference_row
+
+    model = visual_model(env)
+    data = mujoco.MjData(model)
+    controls = LiveControls(env)
+    steps, falls = 0, 0
+    with passive_viewer(model, data, key_callback=controls.on_key, show_left_ui=False,
+                        show_right_ui=False) as handle:
+        with handle.lock():
+            handle.cam.type = mujoco.mjtCamera.mjCAMERA_TRACKING
+            handle.cam.trackbodyid = model.body("pelvis").id
+            handle.cam.distance, handle.cam.azimuth, handle.cam.elevation = 3.0, 150.0, -15.0
+        with torch.inference_mode():
+            env.set_preference(torch.tensor(preference, dtype=torch.float32))
+            env.reset()
+            obs = env.get_observations()
+            while handle.is_running() and (seconds is None or steps * env.dt < seconds):
+                start = time.perf_counter()
+                if controls.apply():
+                    obs = env.get_observations()
+                obs, _, _, extras = env.step(policy(obs))
+                falls += int(extras["episode_metrics"]["fell"].sum())
+                steps += 1
+                with handle.lock():
+                    data.qpos[:] = env.physics.qpos[0].cpu().numpy()
+                    mujoco.mj_forward(model, data)
+                    handle.user_scn.ngeom = 0
+                    if bool(env.pushes.active[0]):
+                        add_push_arrow(handle.user_scn, env.physics.qpos[0, :3].cpu().numpy(),
+                                       env.pushes.direction[0].cpu().numpy())
+                rows = [preference_row(env, 0)] + live_metrics(env, 0, falls)
+                handle.set_texts([
+                    (None, mujoco.mjtGridPos.mjGRID_TOPLEFT, "\n".join(n for n, _ in rows),
+                     "\n".join(v for _, v in rows)),
+                    (None, mujoco.mjtGridPos.mjGRID_BOTTOMLEFT, key_help(env.cfg.objective_names), ""),
+                ])
+                handle.sync()
+                time.sleep(max(0.0, env.dt - (time.perf_counter() - start)))
+    return steps

@@ -11,7 +11,7 @@ import os
 import numpy as np
 
 VIDEO_FORMATS = (".mp4", ".gif")
-INSTALL_HINT = "pip install 'pchc-rsl[render]' (imageio and imageio-ffmpeg)"
+INSTALL_HINT = "pip install -e \".[render]\" (imageio and imageio-ffmpeg)"
 
 
 def check_video_path(path: str) -> str:

@@ -40,7 +40,7 @@ def require_viser():
         from mjviser import ViserMujocoScene
     except ImportError as error:
         raise WebViewerUnavailable(f"the web viewer needs viser and mjviser ({error}); install the extra: "
-                                   "pip install 'pchc-rsl[web]'") from None
+                                   "pip install -e \".[web]\"") from None
     return viser, ViserMujocoScene
 
 
@@ -242,7 +242,7 @@ class WebViewer:
             self.scene.update_from_mjdata(self.data)
 
     def _panels(self) -> None:
-        from pchc_rsl.cli.play import live_metrics
+        from pchc_rsl.live_metrics import live_metrics
 
         self.preference_text.content = preference_markdown(self.env.cfg.objective_names,
                                                            self.env.preference[0].tolist())

@@ -35,8 +35,8 @@ def g1_available() -> bool:
     return available()
 
 
-needs_sdk = pytest.mark.skipif(not sdk_available(), reason="unitree_sdk2py missing (pip install 'pchc-rsl[deploy]')")
-needs_g1 = pytest.mark.skipif(not g1_available(), reason="G1 model unavailable (set MENAGERIE_ROOT offline)")
+needs_sdk = pytest.mark.skipif(not sdk_available(), reason="unitree_sdk2py missing (pip install -e \".[deploy]\")")
+needs_g1 = pytest.mark.skipif(not g1_available(), reason="G1 model unavailable (set MENAGERIE_ROOT)")
 
 
 STEERING_RANGES = {"lin_vel_x": [-0.5, 1.0], "lin_vel_y": [-0.5, 0.5], "ang_vel_z": [-1.0, 1.0]}

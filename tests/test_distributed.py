@@ -8,7 +8,7 @@ import torch
 
 WORKER = '''
 import sys, torch
-from pchc_rsl.cli.common import make_runner
+from pchc_rsl.build import make_runner
 from pchc_rsl.configs import task_config
 from pchc_rsl.distributed import world
 cfg = task_config("toy")
@@ -39,7 +39,7 @@ def test_two_cpu_processes_keep_identical_parameters(tmp_path):
             assert torch.equal(tensor, ranks[1][part][name]), f"{part}.{name} differs between the ranks"
     # learning happened: the parameters moved away from rank 0's initial ones
     torch.manual_seed(1)
-    from pchc_rsl.cli.common import make_runner
+    from pchc_rsl.build import make_runner
     from pchc_rsl.configs import task_config
 
     cfg = task_config("toy")

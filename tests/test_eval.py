@@ -101,9 +101,9 @@ def test_settle_time_of_a_step_change():
 
 
 def test_every_walking_evaluation_episode_is_commanded_the_evaluation_speed():
-    """Walking trains with 15% standing episodes; the evaluation's 0.5 m/s must hold in all of them (it did not
-    before stop 41: 15% of the gait table's episodes were told to stand)."""
-    from pchc_rsl.cli.common import make_env
+    """Walking trains with 15% standing episodes; the evaluation commands 0.5 m/s in every episode, so that no
+    walking figure mixes in episodes told to stand."""
+    from pchc_rsl.build import make_env
     from pchc_rsl.configs import task_config
     from pchc_rsl.evaluation import evaluation_preset
 

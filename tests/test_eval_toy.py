@@ -10,7 +10,7 @@ import torch
 import pchc_rsl.evaluation
 from pchc_rsl.cli import eval as eval_cli
 from pchc_rsl.cli import train as train_cli
-from pchc_rsl.cli.common import make_runner, restore_config
+from pchc_rsl.build import make_runner, restore_config
 from pchc_rsl.evaluation import TOY_EVALUATION, format_metric
 
 

@@ -115,7 +115,7 @@ def test_a_g1_policy_file_describes_itself_for_a_deploy(tmp_path):
     from test_g1_env import g1_available
 
     if not g1_available():
-        pytest.skip("G1 model unavailable (set MENAGERIE_ROOT offline)")
+        pytest.skip("G1 model unavailable (set MENAGERIE_ROOT)")
     from pchc_rsl.cli import export_onnx as export_cli
     from pchc_rsl.export import OnnxPolicy
     from pchc_rsl.robots.g1.constants import WALK_JOINTS, joint_gains, joint_motor

@@ -22,11 +22,11 @@ def g1_available() -> bool:
         return False
 
 
-pytestmark = pytest.mark.skipif(not g1_available(), reason="G1 model unavailable (set MENAGERIE_ROOT offline)")
+pytestmark = pytest.mark.skipif(not g1_available(), reason="G1 model unavailable (set MENAGERIE_ROOT)")
 
 
 def make_walk_env(num_envs=4, seed=0, **env_overrides):
-    from pchc_rsl.cli.common import make_env
+    from pchc_rsl.build import make_env
 
     cfg = task_config("g1-walk-fast")
     cfg.num_envs, cfg.seed = num_envs, seed
@@ -507,10 +507,10 @@ class HostSyncRecorder:
 
 @pytest.mark.parametrize("task", ["g1-walk-fast", "g1-fall-recovery-fast"])
 def test_a_step_waits_on_the_device_only_for_the_reset_indices(monkeypatch, task):
-    """Issue 35: one host sync per step, the indices of the envs to reset (rsl-rl's own Logger makes the same one
+    """One host sync per step, the indices of the envs to reset (rsl-rl's own Logger makes the same one
     at every step); pushes, the divergence check, preference resampling, the curriculum and the episode log work
     on masks. The recorder can fail: a boolean-mask assignment in the env is caught (last lines)."""
-    from pchc_rsl.cli.common import make_env
+    from pchc_rsl.build import make_env
 
     cfg = task_config(task)
     cfg.num_envs = 4

@@ -52,6 +52,8 @@ def test_walking_targets(tmp_path):
     text = open(path).read()
     assert "| (0.00, 1.00) | 0.80 | 0.79 |" in text  # ours beside the paper's Table II at the stride end
     assert "6.0 [5.0, 7.0]" in text
+    # the deviation rises from end to end but dips at (0.25, 0.75): not met, and the line says which order holds
+    assert "0.200, 0.250, 0.300, 0.280, 0.500 m; higher at (0, 1) than at (1, 0), not at every step |" in text
 
 
 def test_walking_targets_need_enough_episodes(tmp_path):
@@ -91,7 +93,7 @@ def test_hand_written_text_above_the_marker_is_kept(tmp_path):
     docs = tmp_path / "docs"
     path = g1_report.main(["--walk", walk, "--docs", str(docs)])
     text = open(path).read()
-    open(path, "w").write(text.replace("# G1: the trained PCHC policies against the paper", "# G1\n\nOur notes."))
+    open(path, "w").write(text.replace("# The G1 walker (`policies/g1_walk.*`)", "# G1\n\nOur notes."))
     text = open(g1_report.main(["--walk", walk, "--docs", str(docs)])).read()
     assert text.startswith("# G1\n\nOur notes.\n\n" + g1_report.GENERATED_MARKER)
     assert text.count("## Walking (Table II)") == 1
@@ -148,23 +150,29 @@ def test_training_line_says_where_the_evaluated_checkpoint_sits_on_longer_runs(t
 
 
 def test_sections_whose_inputs_are_not_given_are_kept_and_fewer_episodes_need_force(tmp_path):
-    """Rewriting only the fall-recovery section keeps the walking section and its training curves word for word;
-    a walking section made from 256 episodes is not replaced by one from 4 unless --force."""
+    """Rewriting only the walker's claim (d) section keeps its table section and training curves word for word, and
+    the fall-recovery card is another file; a walking section made from 256 episodes is not replaced by one from 4
+    unless --force."""
     docs = tmp_path / "docs"
     walk_metrics = [{"stride_length": s, "push_deviation": s, "fall_rate": 0.0} for s in [0.4, 0.5, 0.6, 0.7, 0.8]]
     walk = write_results(tmp_path / "walk", walk_metrics, switching={"falls": 0, "settle_time_s": 1.0})
     path = g1_report.main(["--walk", walk, "--docs", str(docs)])
-    text = open(path).read()
-    walking = text[text.index("## Walking"):]
-    with open(path, "a") as f:  # as if it had training curves and a claim (d) section from an earlier report
-        f.write("\n### Training\n\nwalk-a, 2.3 hours\n\n## Claim (d): one PCHC walker against fixed-preference "
-                "walkers, same budget each\n\nfixed walkers here\n")
+    assert path.endswith("g1_walk.md")
+    with open(path, "a") as f:  # as if it had training curves from an earlier report
+        f.write("\n### Training\n\nrun A, 2.3 hours\n")
+    walking = open(path).read()
+    walking = walking[walking.index("## Walking"):]
     fall_metrics = [{"mild/success": 90, "strong/success": s, "energy_overall": e, "mild/com_displacement": 1.0}
                     for s, e in zip([60, 70, 80, 85, 92], [400, 450, 500, 550, 600])]
     fall = write_results(tmp_path / "fall", fall_metrics)
-    text = open(g1_report.main(["--fall", fall, "--docs", str(docs)])).read()
-    assert walking.strip() in text and "walk-a, 2.3 hours" in text and "fixed walkers here" in text
-    assert "## Fall recovery from prone (Table I)" in text
+    assert g1_report.main(["--fall", fall, "--docs", str(docs)]).endswith("g1_fall_recovery.md")
+    assert "## Fall recovery from prone (Table I)" not in open(path).read()
+    pchc = [{"stride_length": s, "push_deviation": 0.2, "fall_rate": 0.0} for s in [0.40, 0.45, 0.5, 0.55, 0.60]]
+    fixed = {"stride_length": 0.35, "push_deviation": 0.25, "fall_rate": 2.0}
+    claim = write_claim_d(tmp_path / "claim_d", pchc, fixed, fixed, "model_9.pt")
+    text = open(g1_report.main(["--claim-d", claim, "--docs", str(docs)])).read()
+    assert walking.strip() in text and "run A, 2.3 hours" in text
+    assert "## Claim (d): one PCHC walker against fixed-preference walkers, same budget each" in text
     few = write_results(tmp_path / "few", walk_metrics, episodes=4)
     import pytest
 

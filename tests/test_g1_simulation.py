@@ -1,4 +1,4 @@
-"""Issue-level checks of the G1 simulation: lean models, contacts and friction, reset state, rewards and metrics."""
+"""Checks of the G1 simulation: lean models, contacts and friction, reset state, rewards and metrics."""
 
 import mujoco
 import numpy as np

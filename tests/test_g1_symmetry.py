@@ -35,7 +35,7 @@ def test_quaternion_mirror_is_the_reflected_rotation():
         np.testing.assert_allclose(r_mirror.reshape(3, 3), m @ r.reshape(3, 3) @ m, atol=1e-12)
 
 
-needs_g1 = pytest.mark.skipif(not g1_available(), reason="G1 model unavailable (set MENAGERIE_ROOT offline)")
+needs_g1 = pytest.mark.skipif(not g1_available(), reason="G1 model unavailable (set MENAGERIE_ROOT)")
 
 
 @needs_g1

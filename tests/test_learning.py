@@ -2,7 +2,7 @@
 
 import torch
 
-from pchc_rsl.cli.common import make_runner
+from pchc_rsl.build import make_runner
 from pchc_rsl.configs import task_config
 
 PREFERENCES = [(1.0, 0.0), (0.75, 0.25), (0.5, 0.5), (0.25, 0.75), (0.0, 1.0)]

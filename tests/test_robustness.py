@@ -22,7 +22,7 @@ def test_default_conditions_cover_the_shifts_of_each_task():
 def test_condition_overrides_reach_the_evaluated_env(walk_checkpoint):
     """Built as the evaluation builds them: 20 ms is 4 substeps of 5 ms in every env; friction 0.4, +5 kg and
     x0.8 strength are the model's own values (read from the MjModel, not from the config)."""
-    from pchc_rsl.cli.common import make_env, saved_config
+    from pchc_rsl.build import make_env, saved_config
     from pchc_rsl.evaluation import evaluation_config
     from pchc_rsl.robots.g1.model import build_g1_model
     from pchc_rsl.runners import load_checkpoint
@@ -64,3 +64,26 @@ def test_robustness_cli_writes_a_row_per_condition_and_preference(walk_checkpoin
         eval_cli.main([walk_checkpoint, "--robustness", "--condition", "moon gravity", "--output", str(tmp_path / "x")])
     with pytest.raises(SystemExit, match="already holds files"):  # no silent overwrite
         eval_cli.main([walk_checkpoint, "--robustness", "--condition", "nominal", "--output", str(out)])
+
+
+def test_a_colour_scale_starts_at_zero_so_close_speeds_look_close():
+    import numpy as np
+
+    from pchc_rsl.evaluation.robustness import colour_range
+
+    low, high = colour_range("forward_speed", np.array([[0.48, 0.62], [np.nan, 0.55]]))
+    assert low == 0.0 and high >= 1.0
+    assert (0.62 - 0.48) / (high - low) < 0.15  # 0.48 and 0.62 m/s: neighbours on the scale, not its two ends
+    assert colour_range("success", np.array([[97.0, 99.0]])) == (0.0, 100.0)
+    assert colour_range("energy_overall", np.array([[220.0, 520.0]])) == (0.0, 520.0)
+
+
+def test_every_table_names_the_objectives_in_the_tasks_order():
+    from pchc_rsl.configs import task_config
+    from pchc_rsl.evaluation import TASK_EVALUATION, markdown_table
+
+    for task, evaluation in TASK_EVALUATION.items():
+        assert list(evaluation.objectives) == list(task_config(task).env.objective_names), task
+    row = {"preference": [1.0, 0.0], "episodes": 1, "metrics": {"goal_a": -1.0, "goal_b": -2.0}}
+    table = markdown_table([{"name": "toy", "rows": [row]}], TASK_EVALUATION["toy"])
+    assert "| Policy | lambda (goal_a, goal_b) |" in table

@@ -41,7 +41,7 @@ def test_a_released_fall_recovery_policy_resumes_where_its_curriculum_was(tmp_pa
     from test_g1_env import g1_available
 
     if not g1_available():
-        pytest.skip("G1 model unavailable (set MENAGERIE_ROOT offline)")
+        pytest.skip("G1 model unavailable (set MENAGERIE_ROOT)")
     train_cli.main(["--task", "g1-fall-recovery-fast", "--num-envs", "2", "--max-iterations", "1",
                     "runner.num_steps_per_env=4", "--log-dir", str(tmp_path / "run")])
     original = tmp_path / "run" / "model_0.pt"
@@ -94,7 +94,7 @@ def test_init_from_keeps_the_curriculum_progress_and_not_the_random_streams(tmp_
     from test_g1_env import g1_available
 
     if not g1_available():
-        pytest.skip("G1 model unavailable (set MENAGERIE_ROOT offline)")
+        pytest.skip("G1 model unavailable (set MENAGERIE_ROOT)")
     train_cli.main(["--task", "g1-fall-recovery-fast", "--num-envs", "2", "--max-iterations", "1",
                     "runner.num_steps_per_env=4", "--log-dir", str(tmp_path / "run")])
     original = tmp_path / "run" / "model_0.pt"

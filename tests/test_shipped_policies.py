@@ -1,5 +1,5 @@
 """The released G1 policies in policies/: small, their ONNX files export the same networks, and the walker does what
-docs/results/g1.md reports (it stays up under the mild pushes and strides longer at lambda = (0, 1))."""
+its model card reports (it stays up under the mild pushes and strides longer at lambda = (0, 1))."""
 
 import json
 import os
@@ -21,7 +21,7 @@ def shipped(name: str) -> str:
 
 @pytest.mark.parametrize("name", ["g1_walk", "g1_fall_recovery"])
 def test_shipped_files_are_small_and_the_onnx_is_the_same_policy(name):
-    from pchc_rsl.cli.common import make_runner, restore_config, saved_config
+    from pchc_rsl.build import make_runner, restore_config, saved_config
     from pchc_rsl.export import check_onnx_against_torch
     from pchc_rsl.runners import load_checkpoint
 
@@ -43,8 +43,7 @@ def test_shipped_walker_stays_up_and_strides_longer_at_the_stride_end(tmp_path):
     from pchc_rsl.cli import eval as eval_cli
 
     pt = shipped("g1_walk")
-    # 64 episodes, at most 8 falls each: stop 40 counted 6% at (0, 1), which were episodes the evaluation told to stand
-    # (fixed in stop 41: 0 of 256 walking episodes fall at either end)
+    # 64 episodes, at most 8 falls at each end (the model card measures 0 of 256 at both)
     eval_cli.main([pt, "--num-envs", "64", "--episodes", "1", "--preference", "1,0", "--preference", "0,1",
                    "--push-presets", "mild", "--output", str(tmp_path)])
     rows = json.loads((tmp_path / "results.json").read_text())["results"][0]["rows"]

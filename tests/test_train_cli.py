@@ -67,7 +67,7 @@ def test_warp_physics_without_the_extra_says_what_to_install(tmp_path, monkeypat
     monkeypatch.chdir(tmp_path)
     monkeypatch.setitem(sys.modules, "mujoco_warp", None)  # import mujoco_warp raises ImportError
     message = one_line_exit(capsys, ["--task", "g1-walk-fast", "--physics", "warp"])
-    assert "pip install 'pchc-rsl[warp]'" in message
+    assert "pip install -e \".[warp]\"" in message
     assert not os.listdir(tmp_path)
     assert "applies to the G1 tasks" in one_line_exit(capsys, ["--task", "toy", "--physics", "warp"])
 
@@ -293,7 +293,7 @@ def test_loggers_map_to_rsl_rl_log_writers(logger, writer):
 
 
 def test_the_runner_never_replaces_a_checkpoint_it_did_not_write(gated_run, tmp_path):
-    from pchc_rsl.cli.common import make_runner
+    from pchc_rsl.build import make_runner
     from pchc_rsl.configs import task_config
 
     with pytest.raises(FileExistsError, match="already holds checkpoints"):
@@ -342,7 +342,7 @@ def test_threads_are_set_for_torch_and_the_physics_and_printed(tmp_path, capsys)
 
 def test_a_pci_checkpoint_that_predates_the_routing_scale_default_keeps_s_10(tmp_path):
     """Checkpoints saved before the default became 3 do not name routing_scale: they were trained with s = 10."""
-    from pchc_rsl.cli.common import make_runner, restore_config
+    from pchc_rsl.build import make_runner, restore_config
     from pchc_rsl.configs import task_config
 
     fresh = task_config("toy").to_dict()
@@ -357,7 +357,7 @@ def test_a_pci_checkpoint_that_predates_the_routing_scale_default_keeps_s_10(tmp
 def test_a_checkpoint_saved_before_a_field_existed_runs_with_the_fields_default_not_the_tasks():
     """The walking task now trains with 0-20 ms latency and 15% standing commands; a walker saved before those
     fields existed ran without either, and its restored config must say so (its evaluation did not change)."""
-    from pchc_rsl.cli.common import restore_config
+    from pchc_rsl.build import restore_config
     from pchc_rsl.configs import task_config
 
     fresh = task_config("g1-walk-fast")

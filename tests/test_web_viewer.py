@@ -33,7 +33,7 @@ def g1_available() -> bool:
     return available()
 
 
-needs_g1 = pytest.mark.skipif(not g1_available(), reason="G1 model unavailable (set MENAGERIE_ROOT offline)")
+needs_g1 = pytest.mark.skipif(not g1_available(), reason="G1 model unavailable (set MENAGERIE_ROOT)")
 
 
 def test_sliders_map_onto_the_simplex():
@@ -76,8 +76,8 @@ def test_a_missing_viser_names_the_extra(monkeypatch):
 def walk_viewer():
     """The shipped walker in a web viewer on a free loopback port (no loop running: tests step it)."""
     if not g1_available():
-        pytest.skip("G1 model unavailable (set MENAGERIE_ROOT offline)")
-    from pchc_rsl.cli.play import load_policy
+        pytest.skip("G1 model unavailable (set MENAGERIE_ROOT)")
+    from pchc_rsl.evaluation import load_policy
     from pchc_rsl.evaluation import TASK_EVALUATION
     from pchc_rsl.web_viewer import WebViewer
 
@@ -149,7 +149,7 @@ def test_the_panels_show_rewards_and_gait(walk_viewer):
 
 def test_the_toy_gets_its_plot(tmp_path):
     from pchc_rsl.cli import train
-    from pchc_rsl.cli.play import load_policy
+    from pchc_rsl.evaluation import load_policy
     from pchc_rsl.web_viewer import WebViewer
 
     train.main(["--task", "toy", "--num-envs", "2", "--max-iterations", "1", "--log-dir", str(tmp_path / "toy")])
@@ -191,7 +191,7 @@ def browser():
         from selenium import webdriver
         from selenium.webdriver.chrome.service import Service
     except ImportError:
-        pytest.skip("selenium missing (pip install 'pchc-rsl[browser-tests]')")
+        pytest.skip("selenium missing (pip install -e \".[browser-tests]\")")
     if not (chromium and driver):
         pytest.skip("chromium and chromedriver missing (Debian: apt-get install chromium chromium-driver)")
     options = webdriver.ChromeOptions()

@@ -1,11 +1,10 @@
 """Average the networks of several checkpoints of one run (uniform weight averaging, as in SWA).
 
-    python tools/average_checkpoints.py RUN/fall-ptv/model_{2450,2500,2550,2600,2650,2700,2750}.pt --out avg.pt
+    python tools/average_checkpoints.py RUN/model_{350,400,450,500,550}.pt --out avg.pt
 
 Why: late in a run PPO keeps moving the policy, and consecutive checkpoints 50 iterations apart differ by more than
-a table's intervals at the ends of the preference range (g1.md: energy at (1, 0) of 99.7 J/s at one checkpoint and
-127.5 at another of the same run). The mean of the actor's (and critics') parameters over a stretch of checkpoints
-cancels much of that noise. Only checkpoints of one lineage make sense here: averaging works for nearby points of
+a table's intervals at the ends of the preference range (docs/design.md, "Checkpoint averaging"). The mean of the
+actor's (and critics') parameters over a stretch of checkpoints cancels much of that noise. Only checkpoints of one lineage make sense here: averaging works for nearby points of
 one training trajectory, not for independently trained networks.
 
 Floating-point tensors of the actor and critic (weights and observation normalisers) and the value normaliser the

@@ -7,8 +7,8 @@ pchc-eval, per thread setting, as ratios.
 Why: torch's OpenMP threads spin while they wait for work. Two torch processes that each use every core then take
 turns spinning on each other's cores, and a training run that took 10 s alone took 88 s beside one pchc-eval. Each
 setting runs pchc-train in a fresh process (the environment variables must be set before torch loads OpenMP):
-``default`` as pchc-train runs now (physics on every core, torch on one), ``a thread per core`` the old default,
-``passive wait`` the old default with OMP_WAIT_POLICY=PASSIVE (idle OpenMP threads sleep), ``threads=1``. "beside" starts a pchc-eval of the shipped walker first and stops it after the
+``default`` as pchc-train runs now (physics on every core, torch on one), ``a thread per core`` torch's own default,
+``passive wait`` the same with OMP_WAIT_POLICY=PASSIVE (idle OpenMP threads sleep), ``threads=1``. "beside" starts a pchc-eval of the shipped walker first and stops it after the
 run. Prints seconds (median of the repeats) and beside / quiet for each setting and task.
 """
 
@@ -34,7 +34,7 @@ SETTINGS = {
     "passive wait": ({"OMP_WAIT_POLICY": "PASSIVE"}, ["--threads", str(CORES)]),
     "threads=1": ({}, ["--threads", "1"]),
 }
-"""name -> (environment variables, None: unset; pchc-train flags). ``a thread per core`` is the old default (torch
+"""name -> (environment variables, None: unset; pchc-train flags). ``a thread per core`` is torch's own default (torch
 and physics on every core); ``default`` the physics on every core and torch on one. The pchc-eval beside runs with
 the same variables and its own default threads."""
 

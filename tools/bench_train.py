@@ -21,9 +21,9 @@ import time
 
 import torch
 
-from pchc_rsl.cli.checks import check_device, check_physics
-from pchc_rsl.cli.common import make_runner
-from pchc_rsl.cli.overrides import apply_overrides
+from pchc_rsl.checks import check_device, check_physics
+from pchc_rsl.build import make_runner
+from pchc_rsl.overrides import apply_overrides
 from pchc_rsl.configs import task_config
 from pchc_rsl.envs.physics_backend import make_physics
 

@@ -17,7 +17,7 @@ import numpy as np
 import torch
 from torch.distributions import Categorical
 
-from pchc_rsl.cli.common import restore_config, saved_config
+from pchc_rsl.build import restore_config, saved_config
 from pchc_rsl.evaluation import loaded_policy
 from pchc_rsl.evaluation import evenly_spaced_preferences
 from pchc_rsl.runners.checkpoint import load_checkpoint

@@ -1,18 +1,22 @@
-"""docs/results/g1.md: the G1 policies against the paper's Table I and II and against the retraining targets.
+"""The model cards of the shipped G1 policies, docs/results/g1_walk.md and docs/results/g1_fall_recovery.md.
 
-    pchc-eval policies/g1_walk.pt --num-envs 128 --episodes 2 --switch --output EVAL/walk
-    pchc-eval policies/g1_fall_recovery.pt --num-envs 128 --episodes 2 --output EVAL/fall
-    python tools/g1_report.py --walk EVAL/walk --fall EVAL/fall --docs docs/results \
-        --walk-runs RUNS/a+RUNS/a-2 --fall-runs RUNS/b+RUNS/b-2 [--claim-d EVAL/claim_d]
+    pchc-eval policies/g1_walk.pt --num-envs 256 --episodes 1 --switch --output EVAL/walk
+    pchc-eval policies/g1_walk.pt --robustness --num-envs 32 --episodes 1 --output EVAL/walk-robustness
+    pchc-eval policies/g1_fall_recovery.pt --num-envs 256 --episodes 1 --output EVAL/fall
+    pchc-eval policies/g1_fall_recovery.pt --robustness --num-envs 32 --episodes 1 --output EVAL/fall-robustness
+    python tools/g1_report.py --walk EVAL/walk --walk-robustness EVAL/walk-robustness \
+        --fall EVAL/fall --fall-robustness EVAL/fall-robustness --docs docs/results
 
-Each table puts our figure (mean with its 95% interval) beside the paper's at the same preference. The targets are
-checked on the figures, not asserted: the report says which hold and by how much the others miss. Training curves
-(reward, falls / success against env steps and hours) come from the runs' TensorBoard events when given. The text
-above the marker line of an existing g1.md is kept; below it, the sections (and training curves) whose inputs are
-given are rewritten and the others kept, and a section made from more episodes per preference is only replaced
-with --force. --claim-d takes a pchc-eval folder of a PCHC walker (first checkpoint) and fixed-preference walkers
-(pchc-train --fixed-preference) and puts each fixed one beside PCHC at its preference; --claim-d-fall does the same
-for fall-recovery policies.
+A card is a hand-written head (what the policy is, its recipe and lineage as commands, sim-to-sim, what it does
+not do yet), kept above the marker line, and generated sections below it: the paper's table beside ours with the
+units of each, the targets met and not met, the Pareto front, the deployment shifts as a heatmap and tables, claim
+(d), and training curves. A generated section whose inputs are not given is kept as it was, and a section made from
+more episodes per preference is only replaced with --force. --claim-d takes a pchc-eval folder of a PCHC walker
+(first checkpoint) and fixed-preference walkers (pchc-train --fixed-preference) and puts each fixed one beside PCHC
+at its preference; --claim-d-fall does the same for fall-recovery policies. --walk-runs / --fall-runs (run folders
+joined by '+') add training curves from the runs' TensorBoard events.
+
+"Grows" has one meaning here: larger at each of the five preferences than at the one before, from (1, 0) to (0, 1).
 """
 
 from __future__ import annotations
@@ -44,24 +48,29 @@ PAPER_TABLE_I = {  # preference (energy, disturbance) -> (energy overall, COM di
     (0.0, 1.0): (666.24, 0.75, 96.56),
 }
 GENERATED_MARKER = "<!-- Below: written by tools/g1_report.py; edit the text above. -->"
+CARDS = {"walk": ("g1_walk.md", "# The G1 walker (`policies/g1_walk.*`)"),
+         "fall": ("g1_fall_recovery.md", "# The G1 fall-recovery policy (`policies/g1_fall_recovery.*`)")}
+"""card -> (file in --docs, the title of a new card)."""
+GROWS = ("'Grows' means larger at each preference than at the one before, from (1, 0) to (0, 1); 'shrinks' the "
+         "reverse.")
 WALK_FALLS_MAX = 5.0
 WALK_MIN_EPISODES = 256
 FALL_MILD_SUCCESS_MIN = 80.0
 FALL_STRONG_SUCCESS_AT_END_MIN = 90.0
 
 
-def kept_text(path: str) -> str:
-    """The hand-written part of an existing report (everything above the marker), or a title for a new one."""
+def kept_text(path: str, title: str) -> str:
+    """The hand-written part of an existing card (everything above the marker), or ``title`` for a new one."""
     if os.path.exists(path):
         with open(path) as f:
             text = f.read()
         if GENERATED_MARKER in text:
             return text[: text.index(GENERATED_MARKER)].rstrip()
-    return "# G1: the trained PCHC policies against the paper"
+    return title
 
 
 def generated_sections(path: str) -> dict[str, str]:
-    """The generated part of an existing g1.md by its '## ' titles (title -> the section's lines after it)."""
+    """The generated part of an existing card by its '## ' titles (title -> the section's lines after it)."""
     if not os.path.exists(path):
         return {}
     with open(path) as f:
@@ -128,6 +137,14 @@ def increasing(values: list[float]) -> bool:
     return all(v == v for v in values) and all(b > a for a, b in zip(values, values[1:]))
 
 
+def ends_note(values: list[float]) -> str:
+    """For a column that does not grow at every step but ends higher than it starts: says so (an order of the
+    ends only, which the target does not count)."""
+    if increasing(values) or not all(v == v for v in values) or not values[-1] > values[0]:
+        return ""
+    return "; higher at (0, 1) than at (1, 0), not at every step"
+
+
 def verdict(ok: bool) -> str:
     return "met" if ok else "**not met**"
 
@@ -136,20 +153,34 @@ def preference_label(lam) -> str:
     return "(" + ", ".join(f"{x:.2f}" for x in lam) + ")"
 
 
+GAIT_COLUMNS = (("forward_step", "Forward step (m)"), ("side_step", "Side step (m)"),
+                ("cadence", "Cadence (1/s per foot)"), ("air_time", "Air time, median (s)"),
+                ("backward_touchdowns", "Backward touchdowns (%)"), ("forward_speed", "Forward speed (m/s)"),
+                ("strong/fall_rate", "Falls, strong pushes (%)"))
+
+
 def walk_section(results: dict) -> tuple[list[str], list[tuple[str, bool, str]]]:
     """Table II beside the paper's and the walking targets, for the first checkpoint (the PCHC policy); further
     checkpoints (fixed-preference baselines) get rows of their own."""
-    lines = ["| Policy | Preference | Avg. stride (m) | paper | Traj. deviation (m) | paper | Falls (%) | Episodes |",
+    lines = ["| Policy | lambda (disturbance, stride) | Avg. stride (m) | paper (m) | Traj. deviation (m) | paper (m) "
+             "| Falls (%) | Episodes |",
              "|---|---|---|---|---|---|---|---|"]
     for result in results["results"]:
-        for lam, row in sorted(rows_by_preference(result).items()):
+        for lam, row in sorted(rows_by_preference(result).items(), reverse=True):
             paper = PAPER_TABLE_II.get(lam, (math.nan, math.nan))
             lines.append(f"| {result['name']} | {preference_label(lam)} | {cell(row, 'stride_length')} | "
                          f"{paper[0]:.2f} | {cell(row, 'push_deviation')} | {paper[1]:.2f} | "
                          f"{cell(row, 'fall_rate')} | {row['episodes']} |")
     main = results["results"][0]
-    rows = [row for _, row in sorted(rows_by_preference(main).items())]  # (0, 1) first
-    rows.reverse()  # (1, 0) -> (0, 1)
+    rows = [row for _, row in sorted(rows_by_preference(main).items(), reverse=True)]  # (1, 0) -> (0, 1)
+    gait = [(key, title) for key, title in GAIT_COLUMNS if any(key in row["metrics"] for row in rows)]
+    if gait:  # what the paper's table does not show: the gait, and falls under the strong pushes
+        lines += ["", "The gait behind the table (not in the paper), same episodes:", "",
+                  "| lambda (disturbance, stride) | " + " | ".join(title for _, title in gait) + " |",
+                  "|---|" + "---|" * len(gait)]
+        for row in rows:
+            lines.append(f"| {preference_label(row['preference'])} | "
+                         + " | ".join(cell(row, key) for key, _ in gait) + " |")
     falls = [value(r, "fall_rate") for r in rows]
     episodes = min(r["episodes"] for r in rows)
     strides = [value(r, "stride_length") for r in rows]
@@ -158,9 +189,10 @@ def walk_section(results: dict) -> tuple[list[str], list[tuple[str, bool, str]]]
         (f"falls <= {WALK_FALLS_MAX:g}% at every preference, >= {WALK_MIN_EPISODES} episodes each",
          max(falls) <= WALK_FALLS_MAX and episodes >= WALK_MIN_EPISODES,
          f"falls {', '.join(f'{f:.1f}' for f in falls)}% from (1, 0) to (0, 1); {episodes} episodes per preference"),
-        ("stride grows from (1, 0) to (0, 1)", increasing(strides), ", ".join(f"{s:.3f}" for s in strides) + " m"),
+        ("stride grows from (1, 0) to (0, 1)", increasing(strides),
+         ", ".join(f"{s:.3f}" for s in strides) + " m" + ends_note(strides)),
         ("deviation grows from (1, 0) to (0, 1)", increasing(deviations),
-         ", ".join(f"{d:.3f}" for d in deviations) + " m"),
+         ", ".join(f"{d:.3f}" for d in deviations) + " m" + ends_note(deviations)),
     ]
     switching = results.get("switching")
     if switching is not None:
@@ -174,8 +206,8 @@ def walk_section(results: dict) -> tuple[list[str], list[tuple[str, bool, str]]]
 
 
 def fall_section(results: dict) -> tuple[list[str], list[tuple[str, bool, str]]]:
-    lines = ["| Policy | Preference | Energy overall (J/s) | paper (J) | Torque overall (Nm) | COM displ., mild (m) "
-             "| paper | Success, mild (%) | Success, strong (%) | paper | Episodes |",
+    lines = ["| Policy | lambda (energy, disturbance) | Energy overall (J/s) | paper (J) | Torque overall (Nm) "
+             "| COM displ., mild (m) | paper (m) | Success, mild (%) | Success, strong (%) | paper (%) | Episodes |",
              "|---|---|---|---|---|---|---|---|---|---|---|"]
     for result in results["results"]:
         for lam, row in sorted(rows_by_preference(result).items(), reverse=True):
@@ -197,16 +229,17 @@ def fall_section(results: dict) -> tuple[list[str], list[tuple[str, bool, str]]]
          ", ".join(f"{s:.1f}" for s in strong) + "%"),
         (f"success >= {FALL_STRONG_SUCCESS_AT_END_MIN:g}% at (0, 1), strong pushes",
          strong[-1] >= FALL_STRONG_SUCCESS_AT_END_MIN, f"{strong[-1]:.1f}%"),
-        ("energy grows from (1, 0) to (0, 1)", increasing(energy), ", ".join(f"{e:.1f}" for e in energy) + " J/s"),
+        ("energy grows from (1, 0) to (0, 1)", increasing(energy),
+         ", ".join(f"{e:.1f}" for e in energy) + " J/s" + ends_note(energy)),
         ("COM displacement shrinks from (1, 0) to (0, 1)", increasing([-c for c in com]),
-         ", ".join(f"{c:.2f}" for c in com) + " m"),
+         ", ".join(f"{c:.3f}" for c in com) + " m" + ends_note([-c for c in com])),
     ]
     return lines, targets
 
 
 def env_steps(checkpoint: str) -> int | None:
     """Env steps behind a checkpoint: (iterations done) x envs x steps per env; None if the file is gone."""
-    if not os.path.exists(checkpoint):
+    if not checkpoint or not os.path.exists(checkpoint):
         return None
     import torch
 
@@ -257,9 +290,10 @@ def claim_d_section(results: dict, claim: ClaimD) -> list[str]:
     verdict is Pareto dominance on the task's two front objectives."""
     pchc, *fixed = results["results"]
     pchc_rows = rows_by_preference(pchc)
-    pchc_steps = env_steps(pchc["checkpoint"])
+    pchc_steps = pchc.get("env_steps") or env_steps(pchc.get("checkpoint", ""))
     titles = [title for _, title, _ in claim.columns]
-    lines = ["| Policy | Preference | Env steps | " + " | ".join(titles) + " | Episodes |",
+    names = "disturbance, stride" if claim.evaluation is WALK_EVALUATION else "energy, disturbance"
+    lines = [f"| Policy | lambda ({names}) | Env steps | " + " | ".join(titles) + " | Episodes |",
              "|---|---|---|" + "---|" * len(titles) + "---|"]
     verdicts = []
     for result in fixed:
@@ -268,7 +302,8 @@ def claim_d_section(results: dict, claim: ClaimD) -> list[str]:
             raise SystemExit(f"g1_report: {pchc['name']} was not evaluated at {result['name']}'s preference {lam}.")
         ours_row = pchc_rows[lam]
         for name, steps, r in ((pchc["name"] + " (PCHC)", pchc_steps, ours_row),
-                               (result["name"] + " (fixed)", env_steps(result["checkpoint"]), row)):
+                               (result["name"] + " (fixed)",
+                                result.get("env_steps") or env_steps(result.get("checkpoint", "")), row)):
             cells = " | ".join(cell(r, key, digits) for key, _, digits in claim.columns)
             lines.append(f"| {name} | {preference_label(lam)} | {'n/a' if steps is None else f'{steps:,}'} | "
                          f"{cells} | {r['episodes']} |")
@@ -316,10 +351,32 @@ def copy_plot(folder: str, name: str, docs: str, new_name: str) -> str | None:
     return new_name
 
 
-def main(argv: list[str] | None = None) -> str:
+def robustness_lines(folder: str, docs: str, stem: str) -> list[str]:
+    """The deployment shifts of a pchc-eval --robustness folder: its heatmap (drawn again from robustness.json)
+    and its tables."""
+    from pchc_rsl.evaluation.robustness import plot_robustness, robustness_markdown
+
+    with open(os.path.join(folder, "robustness.json")) as f:
+        report = json.load(f)
+    for row in report["rows"]:
+        row["metrics"] = {k: (math.nan if v is None else v) for k, v in row["metrics"].items()}
+    name = f"{stem}_robustness.png"
+    plot_robustness(report, os.path.join(docs, name))
+    episodes = sorted({row["episodes"] for row in report["rows"]})
+    tables = robustness_markdown(report).split("\n", 2)[2].replace("### ", "### Under the shifts: ")
+    return ["Each condition is a list of `KEY=VALUE` overrides on the mild push preset (any one is also a plain "
+            "`pchc-eval CKPT KEY=VALUE ...`; `pchc-eval CKPT --robustness` prints them); "
+            f"{' to '.join(str(e) for e in episodes[::max(1, len(episodes) - 1)])} episodes per cell. Rates with "
+            "the Wilson 95% interval, other figures with the t interval.", "",
+            f"![Deployment shifts]({name})", "", tables.strip(), ""]
+
+
+def main(argv: list[str] | None = None) -> str | list[str]:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--walk", help="pchc-eval output folder of the walking policy (first checkpoint: PCHC)")
     parser.add_argument("--fall", help="pchc-eval output folder of the fall-recovery policy")
+    parser.add_argument("--walk-robustness", help="pchc-eval --robustness output folder of the walking policy")
+    parser.add_argument("--fall-robustness", help="pchc-eval --robustness output folder of the fall-recovery policy")
     parser.add_argument("--walk-runs", help="the walking run's folders joined by '+', for the training curves")
     parser.add_argument("--fall-runs",
                         help="the fall-recovery run's folders joined by '+' (folder@N: its iterations up to N)")
@@ -330,63 +387,77 @@ def main(argv: list[str] | None = None) -> str:
     parser.add_argument("--force", action="store_true",
                         help="replace a section made from more episodes per preference than the new results have")
     args = parser.parse_args(argv)
-    if not (args.walk or args.fall or args.claim_d or args.claim_d_fall):
-        raise SystemExit("g1_report: give --walk, --fall, --claim-d and/or --claim-d-fall (pchc-eval output folders).")
+    inputs = {"walk": (args.walk, args.walk_robustness, args.claim_d),
+              "fall": (args.fall, args.fall_robustness, args.claim_d_fall)}
+    if not any(any(given) for given in inputs.values()):
+        raise SystemExit("g1_report: give --walk, --fall, their --*-robustness, --claim-d and/or --claim-d-fall "
+                         "(pchc-eval output folders).")
     os.makedirs(args.docs, exist_ok=True)
-    path = os.path.join(args.docs, "g1.md")
-    previous = generated_sections(path)  # a section (or its training curves) whose inputs are not given is kept
-    out = [kept_text(path), "", GENERATED_MARKER, ""]
-    sections = [("Walking (Table II)", args.walk, walk_section, args.walk_runs, "g1_walk",
-                 ["Train/mean_reward", "Episode_Termination/fall"]),
-                ("Fall recovery from prone (Table I)", args.fall, fall_section, args.fall_runs, "g1_fall",
-                 ["Train/mean_reward", "Metrics/success", "Curriculum/assist_level", "Curriculum/action_scale"])]
-    for title, folder, section, runs, stem, tags in sections:
+    sections = {"walk": ("Walking (Table II)", args.walk, walk_section, args.walk_runs, "g1_walk",
+                         ["Train/mean_reward", "Episode_Termination/fall"]),
+                "fall": ("Fall recovery from prone (Table I)", args.fall, fall_section, args.fall_runs, "g1_fall",
+                         ["Train/mean_reward", "Metrics/success", "Curriculum/assist_level",
+                          "Curriculum/action_scale"])}
+    written = []
+    for card, (evaluated, robust, claim_folder) in inputs.items():
+        if not any((evaluated, robust, claim_folder)):
+            continue
+        file, title_line = CARDS[card]
+        path = os.path.join(args.docs, file)
+        previous = generated_sections(path)  # a section (or its training curves) whose inputs are not given is kept
+        out = [kept_text(path, title_line), "", GENERATED_MARKER, ""]
+        title, folder, section, runs, stem, tags = sections[card]
         if not folder:
             if title in previous:
                 out += [f"## {title}", "", previous[title], ""]
-            continue
-        results = load_results(folder)
-        episodes = min(row.get("episodes", 0) for row in results["results"][0]["rows"])
-        before = episodes_of(previous.get(title, ""))
-        if before is not None and episodes < before and not args.force:
-            raise SystemExit(f"g1_report: {path}'s '{title}' was made from {before} episodes per preference, "
-                             f"{folder} has {episodes}; pass --force to replace it, or --docs a new folder.")
-        table, targets = section(results)
-        out += [f"## {title}", "", EPISODES_NOTE.format(episodes), f"Evaluated with `pchc-eval` (seed {results['seed']}): no randomisation, no "
-                "observation noise, the paper's pushes. Our figure is the mean with its 95% interval (t for "
-                "measured quantities, Wilson for rates).", "", *table, "", "### Targets", "",
-                *targets_table(targets), ""]
-        for plot, caption in (("pareto.png", "Pareto front"), ("switching.png", "Switching lambda mid-episode"),
-                              ("energy_curve.png", "Energy per step")):
-            name = copy_plot(folder, plot, args.docs, f"{stem}_{plot}")
+        else:
+            results = load_results(folder)
+            episodes = min(row.get("episodes", 0) for row in results["results"][0]["rows"])
+            before = episodes_of(previous.get(title, ""))
+            if before is not None and episodes < before and not args.force:
+                raise SystemExit(f"g1_report: {path}'s '{title}' was made from {before} episodes per preference, "
+                                 f"{folder} has {episodes}; pass --force to replace it, or --docs a new folder.")
+            table, targets = section(results)
+            out += [f"## {title}", "", EPISODES_NOTE.format(episodes),
+                    f"Evaluated with `pchc-eval` (seed {results['seed']}): no randomisation, no observation noise, "
+                    "the paper's pushes (docs/evaluation.md). Our figure is the mean with its 95% interval (t for "
+                    "measured quantities, Wilson for rates); the paper's is its table's.", "",
+                    *table, "", "### Targets", "", GROWS, "", *targets_table(targets), ""]
+            for plot, caption in (("pareto.png", "Pareto front"), ("switching.png", "Switching lambda mid-episode"),
+                                  ("energy_curve.png", "Energy per step")):
+                name = copy_plot(folder, plot, args.docs, f"{stem}_{plot}")
+                if name:
+                    out += [f"![{caption}]({name})", ""]
+            if runs:
+                curves = f"{stem}_training.png"
+                out += ["### Training", "", *training_summary(runs, tags, os.path.join(args.docs, curves),
+                                                           results["results"][0].get("checkpoint")), "",
+                        f"![Training curves]({curves})", ""]
+            elif subsection(previous.get(title, ""), "Training"):
+                out += [subsection(previous[title], "Training"), ""]
+        shifts = "Deployment shifts"
+        if robust:
+            out += [f"## {shifts}", "", *robustness_lines(robust, args.docs, stem)]
+        elif shifts in previous:
+            out += [f"## {shifts}", "", previous[shifts], ""]
+        claim = CLAIM_D[card]
+        if claim_folder:
+            results = load_results(claim_folder)
+            out += [f"## {claim.title}", "",
+                    "The paper (Sec. V, 'Compared with fixed preference'): PCHC performs comparably to policies "
+                    f"trained at one fixed lambda. Each fixed-preference {claim.policy} is evaluated at its own "
+                    f"preference; the PCHC {claim.policy} at every preference (seed {results['seed']}, same "
+                    "evaluation as above).", "", *claim_d_section(results, claim), ""]
+            name = copy_plot(claim_folder, "pareto.png", args.docs, claim.plot)
             if name:
-                out += [f"![{caption}]({name})", ""]
-        if runs:
-            curves = f"{stem}_training.png"
-            out += ["### Training", "", *training_summary(runs, tags, os.path.join(args.docs, curves),
-                                                       results["results"][0].get("checkpoint")), "",
-                    f"![Training curves]({curves})", ""]
-        elif subsection(previous.get(title, ""), "Training"):
-            out += [subsection(previous[title], "Training"), ""]
-    for key, folder in (("walk", args.claim_d), ("fall", args.claim_d_fall)):
-        claim = CLAIM_D[key]
-        if not folder:
-            if claim.title in previous:
-                out += [f"## {claim.title}", "", previous[claim.title], ""]
-            continue
-        results = load_results(folder)
-        out += [f"## {claim.title}", "",
-                "The paper (Sec. V, 'Compared with fixed preference'): PCHC performs comparably to policies trained "
-                f"at one fixed lambda. Each fixed-preference {claim.policy} is evaluated at its own preference; "
-                f"the PCHC {claim.policy} at every preference (seed {results['seed']}, same evaluation as above).",
-                "", *claim_d_section(results, claim), ""]
-        name = copy_plot(folder, "pareto.png", args.docs, claim.plot)
-        if name:
-            out += [f"![PCHC and fixed-preference {claim.policies}]({name})", ""]
-    with open(path, "w") as f:
-        f.write("\n".join(out).rstrip() + "\n")
-    print(f"g1_report: wrote {path}")
-    return path
+                out += [f"![PCHC and fixed-preference {claim.policies}]({name})", ""]
+        elif claim.title in previous:
+            out += [f"## {claim.title}", "", previous[claim.title], ""]
+        with open(path, "w") as f:
+            f.write("\n".join(out).rstrip() + "\n")
+        print(f"g1_report: wrote {path}")
+        written.append(path)
+    return written[0] if len(written) == 1 else written
 
 
 if __name__ == "__main__":

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The GPU check (issue 35), one script for a user's GPU machine or a lent one, under 8 minutes on one GPU:
+# The GPU check, one script for a user's GPU machine or a lent one, under 8 minutes on one GPU:
 #   1. MuJoCo Warp on CUDA against C MuJoCo (tools/warp_parity.py),
 #   2. the whole training loop on Warp at 1024 and 4096 envs, with the host syncs of one iteration counted by torch's
 #      sync debug mode (tools/bench_train.py --sync-debug),

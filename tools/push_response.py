@@ -54,7 +54,7 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
 
-    from pchc_rsl.cli.play import load_policy
+    from pchc_rsl.evaluation import load_policy
 
     _, env, policy = load_policy(args.checkpoint, args.num_envs, args.seed, None, None, args.overrides)
     push = env.cfg.push

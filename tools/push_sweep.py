@@ -2,7 +2,7 @@
 and the share of episodes that stay up, under the task's mild preset with only the speed changed.
 
     python tools/push_sweep.py policies/g1_fall_recovery.pt --speeds 1.2 1.6 2.0 --num-envs 64
-    python tools/push_sweep.py policies/g1_walk.pt --calibrate --plot docs/results/g1_walk_push_calibration.png
+    python tools/push_sweep.py policies/g1_walk.pt --calibrate --plot walk_push_calibration.png
 
 Why: the paper gives no push speed, only what its pushes did, so our presets are set by a rule on what they do
 (``--calibrate``, at the middle preference (0.5, 0.5) of a fixed policy):

@@ -17,7 +17,7 @@ import tempfile
 
 import torch
 
-from pchc_rsl.cli import export_onnx
+from pchc_rsl.export import export_checkpoint
 from pchc_rsl.files import atomic_write
 from pchc_rsl.runners.checkpoint import load_checkpoint, release_checkpoint
 
@@ -41,7 +41,8 @@ def main(argv: list[str] | None = None) -> list[str]:
     try:
         pt, onnx = (os.path.join(scratch, os.path.basename(path)) for path in targets)
         atomic_write(pt, lambda tmp: torch.save(released, tmp))
-        export_onnx.main([pt, "-o", onnx])
+        export_checkpoint(pt, onnx)
+        print(f"ship_policy: exported {onnx}")
         sizes = [os.path.getsize(path) / 2**20 for path in (pt, onnx)]
         for path, size in zip(targets, sizes):
             if size > args.max_mb:

@@ -15,7 +15,7 @@ import sys
 
 import torch
 
-from pchc_rsl.cli.common import make_env
+from pchc_rsl.build import make_env
 from pchc_rsl.configs import task_config
 
 

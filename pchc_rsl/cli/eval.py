@@ -72,10 +72,14 @@ def main(argv: list[str] | None = None) -> None:
 
         videos = []
         if args.video:
-            from pchc_rsl.cli.play import write_eval_videos
+            from pchc_rsl.envs.g1_render import RenderingUnavailable
+            from pchc_rsl.recording import write_eval_videos
 
             os.makedirs(args.output, exist_ok=True)
-            videos = write_eval_videos(args.checkpoints, preferences, args)
+            try:
+                videos = write_eval_videos(args.checkpoints, preferences, args)
+            except RenderingUnavailable as error:
+                raise SystemExit(f"{PROG} --video: {error}") from None
         results, curves, switching = [], {}, None
         for path in args.checkpoints:
             result, curve, switch = evaluate_checkpoint(
@@ -131,7 +135,7 @@ def check_inputs(args) -> tuple[str, dict, list[tuple[float, ...]]]:
     """Everything that can be refused before evaluating: unreadable checkpoints, tasks without an evaluation or
     differing between checkpoints, preferences off the simplex, --switch on a task without it, a file as --output.
     Returns the task, each checkpoint's saved config and the preferences."""
-    from pchc_rsl.cli.common import saved_config
+    from pchc_rsl.build import saved_config
     from pchc_rsl.preference import validate_preference
     from pchc_rsl.runners import load_checkpoint
 

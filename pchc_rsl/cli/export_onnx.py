@@ -21,35 +21,20 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--force", action="store_true", help="replace an existing --output file")
     parser.add_argument("-v", "--verbose", action="store_true", help="print torch's export messages and tracebacks")
     args = parser.parse_args(argv)
+    from pchc_rsl.export import export_checkpoint
+
     output = args.output or os.path.splitext(args.checkpoint)[0] + ".onnx"
     if os.path.isdir(output):
         raise SystemExit(f"{PROG}: --output {output} is a folder; give a file name such as {output}/policy.onnx.")
     if os.path.exists(output) and not args.force:
         raise SystemExit(f"{PROG}: {output} exists; give another -o, or --force to replace it.")
     try:
-        export(args.checkpoint, output, args.verbose)
+        export_checkpoint(args.checkpoint, output, args.verbose)
     except (ValueError, FileNotFoundError, RuntimeError) as error:
         if args.verbose:
             raise
         raise SystemExit(f"{PROG}: {error}") from None
     print(f"{PROG}: wrote {output}")
-
-
-def export(checkpoint: str, output: str, verbose: bool = False) -> str:
-    """Rebuild the checkpoint's policy from its saved config (on the CPU, one env) and export it."""
-    from pchc_rsl.cli.common import make_runner, restore_config, saved_config
-    from pchc_rsl.runners import load_checkpoint
-
-    cfg = restore_config(saved_config(checkpoint, load_checkpoint(checkpoint)))
-    cfg.num_envs, cfg.device = 1, "cpu"
-    if hasattr(cfg.env, "curriculum"):
-        cfg.env.curriculum = False  # the deployed action scale is the curriculum's final one, as pchc-eval runs it
-    runner = make_runner(cfg, verbose=verbose)
-    runner.load(checkpoint)
-    metadata = None
-    if hasattr(runner.env, "deploy_metadata"):
-        metadata = {"task": cfg.name, **runner.env.deploy_metadata()}
-    return runner.export_onnx(output, verbose=verbose, metadata=metadata)
 
 
 if __name__ == "__main__":

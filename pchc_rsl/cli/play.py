@@ -9,15 +9,8 @@ The environment is the one pchc-eval builds for the checkpoint (no randomisation
 from __future__ import annotations
 
 import argparse
-import math
 import os
-import sys
-import time
-from collections import deque
 
-TOY_STEPS_PER_SECOND = 10
-"""The toy has no physical time: its video shows this many steps per second."""
-LAMBDA_STEP = 0.1
 VIDEO_PREFERENCES = [(1.0, 0.0), (0.5, 0.5), (0.0, 1.0)]
 VIEWER_PREFERENCE = (0.5, 0.5)
 
@@ -55,11 +48,9 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def has_display() -> bool:
-    return sys.platform in ("darwin", "win32") or bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
-
-
 def main(argv: list[str] | None = None) -> None:
+    from pchc_rsl.recording import has_display
+
     args = build_parser().parse_intermixed_args(argv)  # KEY=VALUE words may follow the options
     try:
         preferences = parse_preferences(args.preference, default_preferences(args.checkpoint, args.video))
@@ -79,6 +70,8 @@ def main(argv: list[str] | None = None) -> None:
 
     try:
         if args.video:
+            from pchc_rsl.recording import record_checkpoint_video
+
             path = record_checkpoint_video(args.checkpoint, preferences, args.video, args)
             print(f"pchc-play: wrote {path}")
         elif viewer == "web":
@@ -142,214 +135,9 @@ def check_arguments(args) -> None:
         raise ValueError(f"--speed {args.speed}: must be in (0, 10], e.g. --speed 0.5 for half speed.")
 
 
-# ---------------------------------------------------------------------------- the env and policy of a checkpoint
-def load_policy(path: str, num_envs: int, seed: int, episode_length_s: float | None, push_every: float | None,
-                overrides: list[str] = ()):
-    """The checkpoint's env under pchc-eval's evaluation preset (its first push preset) and ``overrides``, and its
-    inference policy.
-
-    Returns (task, env, policy); refuses tasks without a scene to show in one line."""
-    from pchc_rsl.cli.common import restore_config
-    from pchc_rsl.cli.overrides import apply_overrides
-    from pchc_rsl.evaluation import TASK_EVALUATION, evaluation_preset, loaded_policy
-    from pchc_rsl.runners import load_checkpoint
-
-    try:
-        config = load_checkpoint(path).get("config") or {}
-    except (FileNotFoundError, ValueError) as error:
-        raise SystemExit(f"pchc-play: {error}") from None
-    task = config.get("task")
-    if task != "toy" and task not in TASK_EVALUATION:
-        shown = ", ".join(sorted(TASK_EVALUATION) + ["toy"])
-        raise SystemExit(f"pchc-play: {path} is for task '{task}'; pchc-play shows {shown}.")
-    cfg = restore_config(config)
-    if task == "toy":
-        if episode_length_s is not None:
-            cfg.env.episode_length = max(1, round(episode_length_s * TOY_STEPS_PER_SECOND))
-    else:
-        evaluation = TASK_EVALUATION[task]
-        cfg = evaluation_preset(cfg, evaluation.push_presets[0], evaluation)
-        if episode_length_s is not None:
-            cfg.env.episode_length_s = episode_length_s
-        if push_every is not None:
-            interval = push_every if push_every > 0 else 1e9  # 0: never by itself, still on a key press
-            cfg.env.push.interval_s = (interval, interval)
-    try:
-        apply_overrides(cfg, list(overrides))
-    except ValueError as error:
-        raise SystemExit(f"pchc-play: {error}") from None
-    cfg.num_envs, cfg.seed, cfg.device = num_envs, seed, "cpu"
-    runner, policy = loaded_policy(path, cfg)
-    return task, runner.env, policy
-
-
-def check_objectives(env, preferences, path: str) -> None:
-    m = env.num_objectives
-    for lam in preferences:
-        if len(lam) != m:
-            names = ", ".join(env.cfg.objective_names)
-            raise SystemExit(f"pchc-play: preference {lam} has {len(lam)} entries; {path} has {m} objectives "
-                             f"({names}): pass --preference with {m} numbers summing to 1.")
-
-
-# ---------------------------------------------------------------------------- labels
-def _number(value: float, fmt: str) -> str:
-    return "-" if value != value else format(value, fmt)
-
-
-def live_metrics(env, i: int, falls: int) -> list[tuple[str, str]]:
-    """(name, value) pairs shown next to a robot: stride or energy, the last push's deviation, falls or standing."""
-    import torch
-
-    if not hasattr(env, "episode_metrics"):  # the toy: how far from each goal
-        distance = (env.pos[i] - env.goals).norm(dim=-1)
-        return [(f"distance to {n}", f"{d:.2f}") for n, d in zip("AB", distance.tolist())]
-    metrics = {k: float(v[0]) for k, v in env.episode_metrics(torch.tensor([i])).items()}
-    if "energy_overall" in metrics:
-        rows = [("energy", _number(metrics["energy_overall"], ".0f") + " J/s")]
-    else:
-        rows = [("stride", _number(metrics.get("stride_length", math.nan), ".2f") + " m")]
-    pushed = bool(env.pushes.active[i]) or not math.isnan(metrics.get("push_deviation", math.nan))
-    deviation = float(env.pushes.max_deviation[i]) if pushed else math.nan
-    rows.append(("push deviation", _number(deviation, ".2f") + " m"))
-    if hasattr(env, "reached_standing"):
-        rows.append(("state", "standing" if bool(env.reached_standing[i]) else "getting up"))
-    else:
-        rows.append(("falls", str(falls)))
-    return rows
-
-
-def preference_row(env, i: int) -> tuple[str, str]:
-    """("lambda (obj_1, obj_2)", "(0.30, 0.70)")."""
-    lam = ", ".join(f"{x:.2f}" for x in env.preference[i].tolist())
-    return f"lambda ({', '.join(env.cfg.objective_names)})", f"({lam})"
-
-
-def tile_label(env, i: int, falls: int) -> list[str]:
-    name, value = preference_row(env, i)
-    return [f"{name} = {value}"] + [f"{name}: {value}" for name, value in live_metrics(env, i, falls)]
-
-
-# ---------------------------------------------------------------------------- video
-def record_checkpoint_video(checkpoint: str, preferences, path: str, args) -> str:
-    """One episode per preference of ``args.seconds`` (default: the task's episode length), tiled into ``path``."""
-    print(f"pchc-play: loading {checkpoint} and building {len(preferences)} env(s)...", flush=True)
-    task, env, policy = load_policy(checkpoint, len(preferences), args.seed, args.seconds, args.push_every,
-                                    args.overrides)
-    check_objectives(env, preferences, checkpoint)
-    if task == "toy":
-        from pchc_rsl.envs.toy_render import ToyPlot
-
-        renderer, dt = ToyPlot(env, args.width, args.height), 1.0 / TOY_STEPS_PER_SECOND
-    else:
-        from pchc_rsl.envs.g1_render import G1Renderer
-
-        renderer, dt = G1Renderer(env, args.width, args.height), env.dt
-    seconds = args.seconds if args.seconds is not None else env.max_episode_length * dt
-    print(f"pchc-play: simulating and rendering {seconds:g} s at {len(preferences)} preference(s)...", flush=True)
-    try:
-        frames = record_video(env, policy, renderer, preferences, path, seconds, dt, args.fps)
-    finally:
-        renderer.close()
-    return f"{path} ({frames} frames, {len(preferences)} preferences, {seconds:g} s)"
-
-
-def record_video(env, policy, renderer, preferences, path: str, seconds: float, dt: float, fps: float) -> int:
-    """Step env i at preferences[i] for ``seconds``, a frame every round(1 / (fps dt)) steps; returns the frame count.
-
-    The frame rate written is the one achieved, 1 / (frame interval), so the video plays in real time."""
-    import torch
-
-    from pchc_rsl.video import VideoWriter, label, tile
-
-    steps = max(1, round(seconds / dt))
-    every = max(1, round(1.0 / (fps * dt)))
-    falls = [0] * env.num_envs
-    with torch.inference_mode(), VideoWriter(path, 1.0 / (every * dt)) as video:
-        env.set_preference(torch.tensor(preferences, dtype=torch.float32))
-        env.reset()
-        if hasattr(renderer, "record"):
-            renderer.record()
-        obs = env.get_observations()
-        for step in range(steps):
-            if step % every == 0:
-                video.append(tile([label(renderer.render(env, i), tile_label(env, i, falls[i]))
-                                   for i in range(env.num_envs)]))
-            obs, _, _, extras = env.step(policy(obs))
-            if hasattr(renderer, "record"):
-                renderer.record()
-            finished = extras.get("episode_metrics")
-            if finished is not None:
-                for env_id in finished["env_ids"][finished["fell"]].tolist():
-                    falls[env_id] += 1
-        return video.count
-
-
-def write_eval_videos(checkpoints: list[str], preferences, args) -> list[str]:
-    """pchc-eval --video: the tiled video of each checkpoint at the evaluated preferences, next to the tables.
-
-    Called before the evaluation, so that a headless run can still choose MUJOCO_GL=egl before mujoco loads."""
-    if not has_display():
-        os.environ.setdefault("MUJOCO_GL", "egl")
-    from pchc_rsl.envs.g1_render import RenderingUnavailable
-
-    video_args = argparse.Namespace(seed=args.seed, seconds=args.episode_length, push_every=None, width=320,
-                                    overrides=getattr(args, "overrides", []),
-                                    height=240, fps=25.0)
-    written = []
-    for checkpoint in checkpoints:
-        run = os.path.basename(os.path.dirname(os.path.abspath(checkpoint)))
-        path = os.path.join(args.output, f"{run}_{os.path.splitext(os.path.basename(checkpoint))[0]}.mp4")
-        try:
-            written.append(record_checkpoint_video(checkpoint, preferences, path, video_args))
-        except RenderingUnavailable as error:
-            raise SystemExit(f"pchc-eval --video: {error}") from None
-        print(f"pchc-eval: wrote {written[-1]}")
-    return written
-
-
-# ---------------------------------------------------------------------------- interactive viewer
-RIGHT, LEFT, SPACE, BACKSPACE = 262, 263, 32, 259
-"""GLFW key codes of the keys the passive viewer leaves to its user (its letters toggle rendering flags)."""
-KEYS = {RIGHT: "right", LEFT: "left", SPACE: "push", BACKSPACE: "reset"}
-
-
-def key_help(objective_names: list[str]) -> str:
-    first, second = objective_names
-    return f"Left: more {first}\nRight: more {second}\nSpace: push\nBackspace: reset"
-
-
-class LiveControls:
-    """The viewer's keys: queued from the viewer's thread, applied between policy steps on env 0."""
-
-    def __init__(self, env) -> None:
-        self.env, self.pending = env, deque()
-
-    def on_key(self, keycode: int) -> None:
-        if keycode in KEYS:
-            self.pending.append(KEYS[keycode])
-
-    def apply(self) -> bool:
-        """Apply the queued keys; True if any did (the policy then needs fresh observations)."""
-        import torch
-
-        env, changed = self.env, bool(self.pending)
-        while self.pending:
-            action = self.pending.popleft()
-            if action in ("left", "right") and env.num_objectives == 2:
-                t = float(env.preference[0, 1]) + (LAMBDA_STEP if action == "right" else -LAMBDA_STEP)
-                t = min(1.0, max(0.0, round(t / LAMBDA_STEP) * LAMBDA_STEP))
-                env.set_preference(torch.tensor([1.0 - t, t]))
-            elif action == "push":
-                env.pushes.countdown[:] = 1  # the next step pushes, at the preset's strength, in a random direction
-            elif action == "reset":
-                env.reset()
-        return changed
-
-
 def watch_in_browser(checkpoint: str, preference, args) -> None:
     """The policy in a page served by viser on --host:--port, until Ctrl-C (or --seconds of simulation)."""
-    from pchc_rsl.evaluation import TASK_EVALUATION
+    from pchc_rsl.evaluation import TASK_EVALUATION, check_objectives, load_policy
     from pchc_rsl.web_viewer import DEFAULT_HOST, DEFAULT_PORT, WebViewer, check_port, require_viser
 
     host, port = args.host or DEFAULT_HOST, args.port or DEFAULT_PORT
@@ -371,6 +159,10 @@ def watch_in_browser(checkpoint: str, preference, args) -> None:
 
 
 def watch_checkpoint(checkpoint: str, preference, args) -> None:
+    """The policy in MuJoCo's window until it is closed (or --seconds of simulation)."""
+    from pchc_rsl.evaluation import check_objectives, load_policy
+    from pchc_rsl.passive_viewer import run_viewer
+
     task, env, policy = load_policy(checkpoint, 1, args.seed, 1e6, args.push_every, args.overrides)  # no time-outs while watching
     if task == "toy":
         raise SystemExit("pchc-play: the toy task has no MuJoCo scene to view; pass --video toy.gif for an animated "
@@ -378,53 +170,6 @@ def watch_checkpoint(checkpoint: str, preference, args) -> None:
     check_objectives(env, [preference], checkpoint)
     steps = run_viewer(env, policy, preference, args.seconds)
     print(f"pchc-play: viewer closed after {steps * env.dt:.1f} s at lambda {tuple(env.preference[0].tolist())}")
-
-
-def run_viewer(env, policy, preference, seconds: float | None) -> int:
-    """MuJoCo's passive viewer on env 0 in real time until closed (or ``seconds`` of simulation); returns steps."""
-    import mujoco
-    import torch
-
-    from pchc_rsl.envs.g1_render import add_push_arrow, visual_model
-    from pchc_rsl.passive_viewer import passive_viewer
-
-    model = visual_model(env)
-    data = mujoco.MjData(model)
-    controls = LiveControls(env)
-    steps, falls = 0, 0
-    with passive_viewer(model, data, key_callback=controls.on_key, show_left_ui=False,
-                        show_right_ui=False) as handle:
-        with handle.lock():
-            handle.cam.type = mujoco.mjtCamera.mjCAMERA_TRACKING
-            handle.cam.trackbodyid = model.body("pelvis").id
-            handle.cam.distance, handle.cam.azimuth, handle.cam.elevation = 3.0, 150.0, -15.0
-        with torch.inference_mode():
-            env.set_preference(torch.tensor(preference, dtype=torch.float32))
-            env.reset()
-            obs = env.get_observations()
-            while handle.is_running() and (seconds is None or steps * env.dt < seconds):
-                start = time.perf_counter()
-                if controls.apply():
-                    obs = env.get_observations()
-                obs, _, _, extras = env.step(policy(obs))
-                falls += int(extras["episode_metrics"]["fell"].sum())
-                steps += 1
-                with handle.lock():
-                    data.qpos[:] = env.physics.qpos[0].cpu().numpy()
-                    mujoco.mj_forward(model, data)
-                    handle.user_scn.ngeom = 0
-                    if bool(env.pushes.active[0]):
-                        add_push_arrow(handle.user_scn, env.physics.qpos[0, :3].cpu().numpy(),
-                                       env.pushes.direction[0].cpu().numpy())
-                rows = [preference_row(env, 0)] + live_metrics(env, 0, falls)
-                handle.set_texts([
-                    (None, mujoco.mjtGridPos.mjGRID_TOPLEFT, "\n".join(n for n, _ in rows),
-                     "\n".join(v for _, v in rows)),
-                    (None, mujoco.mjtGridPos.mjGRID_BOTTOMLEFT, key_help(env.cfg.objective_names), ""),
-                ])
-                handle.sync()
-                time.sleep(max(0.0, env.dt - (time.perf_counter() - start)))
-    return steps
 
 
 if __name__ == "__main__":

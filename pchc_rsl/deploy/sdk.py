@@ -32,7 +32,7 @@ def sdk():
         from unitree_sdk2py.utils.crc import CRC
     except ImportError as error:
         raise SdkMissing(f"unitree_sdk2py is not importable ({error}); install the deploy extra: "
-                         "pip install 'pchc-rsl[deploy]' (or Unitree's unitree_sdk2_python)") from None
+                         "pip install -e \".[deploy]\" (or Unitree's unitree_sdk2_python)") from None
     return channel, default, hg, CRC
 
 

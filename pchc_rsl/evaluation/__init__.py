@@ -6,7 +6,8 @@ specifics (which metrics form the front, the table columns, the evaluation prese
 (pchc-eval, pchc-play) and the tools only parse their arguments and call these.
 """
 
-from pchc_rsl.evaluation.checkpoint import (evaluate_checkpoint, evaluation_config, loaded_policy, task_config_of,
+from pchc_rsl.evaluation.checkpoint import (TOY_STEPS_PER_SECOND, check_objectives, evaluate_checkpoint,
+                                            evaluation_config, load_policy, loaded_policy, task_config_of,
                                             trained_preference)
 from pchc_rsl.evaluation.presets import (
     FALL_RECOVERY_EVALUATION,
@@ -23,7 +24,7 @@ from pchc_rsl.evaluation.runs import run_episodes, run_return_episodes, settle_t
 from pchc_rsl.evaluation.statistics import RATE_METRICS, aggregate, wilson_interval
 
 __all__ = [
-    "Condition", "FALL_RECOVERY_EVALUATION", "RATE_METRICS", "TASK_EVALUATION", "TOY_EVALUATION", "TaskEvaluation",
+    "Condition", "FALL_RECOVERY_EVALUATION", "TOY_STEPS_PER_SECOND", "check_objectives", "load_policy", "RATE_METRICS", "TASK_EVALUATION", "TOY_EVALUATION", "TaskEvaluation",
     "WALK_EVALUATION", "aggregate", "default_conditions", "evaluate_checkpoint", "evaluation_config",
     "evaluation_preset", "evenly_spaced_preferences", "format_metric", "front_points", "front_summary",
     "loaded_policy", "markdown_table", "run_episodes", "run_return_episodes", "run_robustness", "settle_time",

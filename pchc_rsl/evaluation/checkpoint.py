@@ -1,5 +1,5 @@
 """Evaluating a checkpoint: its saved config under the evaluation preset, its policy loaded, every preference and
-push preset run."""
+push preset run; and the env and policy of a checkpoint as pchc-play, the viewers and the tools show it."""
 
 from __future__ import annotations
 
@@ -10,13 +10,16 @@ from pchc_rsl.evaluation.report import front_points, front_summary
 from pchc_rsl.evaluation.runs import run_episodes, run_return_episodes, switching_run
 from pchc_rsl.evaluation.statistics import aggregate
 
+TOY_STEPS_PER_SECOND = 10
+"""The toy has no physical time: an episode length in seconds, and its video, count this many steps per second."""
+
 
 def evaluation_config(config: dict, preset: str | None, num_envs: int, seed: int, overrides: list[str] = (),
                       device: str = "cpu"):
     """A checkpoint's saved config as pchc-eval runs it: the task's evaluation preset with this push preset (None:
     the config as trained), then the ``KEY=VALUE`` overrides (a deployment shift, another push), lambda not held."""
-    from pchc_rsl.cli.common import restore_config
-    from pchc_rsl.cli.overrides import apply_overrides
+    from pchc_rsl.build import restore_config
+    from pchc_rsl.overrides import apply_overrides
 
     cfg = restore_config(config)
     if preset is not None:
@@ -28,7 +31,7 @@ def evaluation_config(config: dict, preset: str | None, num_envs: int, seed: int
 
 def loaded_policy(path: str, cfg, verbose: bool = False):
     """(runner, deterministic policy) for ``cfg`` with the checkpoint at ``path`` loaded."""
-    from pchc_rsl.cli.common import make_runner
+    from pchc_rsl.build import make_runner
 
     runner = make_runner(cfg, verbose=verbose)
     runner.load(path)
@@ -37,7 +40,7 @@ def loaded_policy(path: str, cfg, verbose: bool = False):
 
 def task_config_of(path: str, task_prefix: str, tool: str, what: str) -> dict:
     """A checkpoint's saved config; exits with a one-line error naming ``tool`` if its task is not ``what``."""
-    from pchc_rsl.cli.common import saved_config
+    from pchc_rsl.build import saved_config
     from pchc_rsl.runners import load_checkpoint
 
     config = saved_config(path, load_checkpoint(path))
@@ -100,3 +103,45 @@ def evaluate_checkpoint(path: str, config: dict, preferences, num_envs: int = 64
     result["front"] = front_summary(front_points(rows, evaluation), evaluation)
     return result, curves, switched
 
+
+def load_policy(path: str, num_envs: int, seed: int, episode_length_s: float | None, push_every: float | None,
+                overrides: list[str] = ()):
+    """The checkpoint's env under pchc-eval's evaluation preset (its first push preset) and ``overrides``, and its
+    inference policy.
+
+    Returns (task, env, policy); ValueError (one line) for a task without an evaluation preset or a bad override."""
+    from pchc_rsl.build import restore_config
+    from pchc_rsl.overrides import apply_overrides
+    from pchc_rsl.runners import load_checkpoint
+
+    config = load_checkpoint(path).get("config") or {}
+    task = config.get("task")
+    if task != "toy" and task not in TASK_EVALUATION:
+        shown = ", ".join(sorted(TASK_EVALUATION) + ["toy"])
+        raise ValueError(f"{path} is for task '{task}'; a policy can be shown for {shown}.")
+    cfg = restore_config(config)
+    if task == "toy":
+        if episode_length_s is not None:
+            cfg.env.episode_length = max(1, round(episode_length_s * TOY_STEPS_PER_SECOND))
+    else:
+        evaluation = TASK_EVALUATION[task]
+        cfg = evaluation_preset(cfg, evaluation.push_presets[0], evaluation)
+        if episode_length_s is not None:
+            cfg.env.episode_length_s = episode_length_s
+        if push_every is not None:
+            interval = push_every if push_every > 0 else 1e9  # 0: never by itself, still on a key press
+            cfg.env.push.interval_s = (interval, interval)
+    apply_overrides(cfg, list(overrides))
+    cfg.num_envs, cfg.seed, cfg.device = num_envs, seed, "cpu"
+    runner, policy = loaded_policy(path, cfg)
+    return task, runner.env, policy
+
+
+def check_objectives(env, preferences, path: str) -> None:
+    """ValueError unless every preference has one entry per objective of the env."""
+    m = env.num_objectives
+    for lam in preferences:
+        if len(lam) != m:
+            names = ", ".join(env.cfg.objective_names)
+            raise ValueError(f"preference {lam} has {len(lam)} entries; {path} has {m} objectives "
+                             f"({names}): pass --preference with {m} numbers summing to 1.")

@@ -16,10 +16,16 @@ def _pyplot():
     return plt
 
 
+HV_S_NOTE = ("HV (hypervolume): the area between the front and the reference point; larger is better.\n"
+             "S (sparsity): the mean squared gap between neighbouring front points; smaller is more even.")
+
+
 def plot_pareto(results, evaluation, path):
+    """Each policy's points (one per preference) in the signed front coordinates, HV and S in the legend, the
+    paper's points where it gives them in the same units, and what HV and S mean under the axes."""
     plt = _pyplot()
     (a, sign_a), (b, sign_b) = evaluation.front  # plotted signed, as the front and its reference point are
-    fig, ax = plt.subplots(figsize=(5.5, 4.5))
+    fig, ax = plt.subplots(figsize=(5.5, 5.0))
     for result in results:
         xs = [sign_a * r["metrics"].get(a, np.nan) for r in result["rows"]]
         ys = [sign_b * r["metrics"].get(b, np.nan) for r in result["rows"]]
@@ -27,6 +33,11 @@ def plot_pareto(results, evaluation, path):
         ax.plot(xs, ys, "o-", label=f"{result['name']}: HV {f['hypervolume']:.3g}, S {f['sparsity']:.3g}")
         for row, x, y in zip(result["rows"], xs, ys):
             ax.annotate("(" + ", ".join(f"{v:.2f}" for v in row["preference"]) + ")", (x, y), fontsize=7)
+    if evaluation.paper_front:
+        points = sorted(evaluation.paper_front.items(), reverse=True)
+        ax.plot([sign_a * p[0] for _, p in points], [sign_b * p[1] for _, p in points], "x--", color="0.4",
+                label=f"paper, {evaluation.table}")
+    note = HV_S_NOTE + (f"\n{evaluation.paper_note}" if evaluation.paper_note else "")
     ax.set_xlabel(("−" if sign_a < 0 else "") + evaluation.columns.get(a, a) + " (more is better)")
     ax.set_ylabel(("−" if sign_b < 0 else "") + evaluation.columns.get(b, b) + " (more is better)")
     ax.set_title(f"{evaluation.table}; HV reference point {evaluation.reference_point}", fontsize=9)
@@ -34,7 +45,8 @@ def plot_pareto(results, evaluation, path):
     if empty:
         ax.text(0.5, 0.5, empty, transform=ax.transAxes, ha="center", va="center", fontsize=8, wrap=True)
     ax.legend(fontsize=7)
-    fig.tight_layout()
+    fig.text(0.01, 0.01, note, fontsize=6.5, va="bottom", ha="left")
+    fig.tight_layout(rect=(0, 0.09 if evaluation.paper_note else 0.07, 1, 1))
     fig.savefig(path, dpi=120)
     plt.close(fig)
     return path

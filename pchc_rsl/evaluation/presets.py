@@ -28,6 +28,13 @@ class TaskEvaluation:
     command: tuple[float, float, float] | None = None
     push_only_when_standing: bool = False
     """Push the robot once it stands (fall recovery), not while it is still on the floor."""
+    paper_front: dict[tuple[float, float], tuple[float, float]] = field(default_factory=dict)
+    """The paper's figures of the two front metrics (unsigned, in ``front``'s order) by preference, drawn beside
+    ours; empty where the paper gives none in the same units."""
+    paper_note: str = ""
+    """Why the paper's points are not drawn, when they are not."""
+    objectives: tuple[str, ...] = ()
+    """The objectives lambda weights, in order (named in every table)."""
 
 
 WALK_EVALUATION = TaskEvaluation(
@@ -42,6 +49,10 @@ WALK_EVALUATION = TaskEvaluation(
     push_presets=["mild", "strong"],
     pushes={"mild": (0.5, 1.0), "strong": (2.25, 1.0), "mild-v1": (0.5, 1.0), "strong-v1": (1.2, 1.0)},
     command=(0.5, 0.0, 0.0),
+    objectives=("disturbance", "stride"),
+    # Table II: (trajectory deviation m, avg. stride m); its (1, 0) row is printed (0.10, 0.00), a typo
+    paper_front={(1.0, 0.0): (0.23, 0.42), (0.75, 0.25): (0.29, 0.55), (0.5, 0.5): (0.33, 0.67),
+                 (0.25, 0.75): (0.51, 0.72), (0.0, 1.0): (0.85, 0.79)},
 )
 
 
@@ -63,6 +74,8 @@ FALL_RECOVERY_EVALUATION = TaskEvaluation(
     push_presets=["mild", "strong"],
     pushes={"mild": (2.25, 3.0), "strong": (2.5, 3.0), "mild-v1": (0.5, 1.0), "strong-v1": (1.2, 1.0)},
     push_only_when_standing=True,
+    paper_note="Table I's energy is in J, ours in J/s (mean power): its points are not drawn.",
+    objectives=("energy", "disturbance"),
 )
 
 
@@ -73,14 +86,15 @@ TOY_EVALUATION = TaskEvaluation(
     reference_point=(-60.0, -60.0),
     push_presets=[],
     episode_returns=True,
+    objectives=("goal_a", "goal_b"),
 )
 
 
-PUSH_CALIBRATION = """The presets come from tools/push_sweep.py --calibrate on the shipped policies at (0.5, 0.5)
-(docs/results/g1.md, "Push presets"): mild is the speed whose deviation after a push comes closest to the paper's at
+PUSH_CALIBRATION = """The presets come from tools/push_sweep.py --calibrate on the first released policies at (0.5, 0.5)
+(docs/evaluation.md, "Push presets"): mild is the speed whose deviation after a push comes closest to the paper's at
 (0.5, 0.5) while 90% of episodes stay up, strong the speed at which the share that stays up comes closest to the
 paper's 75.7%. Fall recovery measures the COM until the next push (3 s), long enough for the robot to settle; the
-1 s window of the v1 presets cut the displacement short. The v1 presets (0.5 and 1.2 m/s, 1 s) were used before."""
+1 s window of the v1 presets cut the displacement short. The v1 presets (0.5 and 1.2 m/s, 1 s) remain available."""
 
 
 TASK_EVALUATION = {

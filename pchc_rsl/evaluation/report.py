@@ -36,7 +36,8 @@ def front_summary(points: np.ndarray, evaluation: TaskEvaluation) -> dict:
 
 def markdown_table(results: list[dict], evaluation: TaskEvaluation) -> str:
     """The paper's table: one row per (checkpoint, preference), each figure with its 95% interval."""
-    header = ["Policy", "Preference", *evaluation.columns.values(), "Episodes"]
+    preference = f"lambda ({', '.join(evaluation.objectives)})" if evaluation.objectives else "Preference"
+    header = ["Policy", preference, *evaluation.columns.values(), "Episodes"]
     lines = [f"{evaluation.table}; mean ± 95% interval half-width (t), rates with the Wilson 95% interval", "",
              "| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     for result in results:

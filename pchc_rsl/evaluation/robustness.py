@@ -38,7 +38,7 @@ FALL_RECOVERY_PUSH_SWEEP = (1.6, 2.0, 2.4)
 
 
 def default_conditions(task: str) -> list[Condition]:
-    """The default set of the evaluation issue: nominal, action latency 10 and 20 ms, the paper physics for a
+    """The default set of deployment shifts: nominal, action latency 10 and 20 ms, the paper physics for a
     ``-fast`` policy, friction 0.4 and 1.2, pelvis mass -1 and +5 kg, actuator strength 0.8, observation noise,
     commands 0 and 1.0 m/s (walking; 0.5 is the nominal), and a push-speed sweep."""
     walking = task.startswith("g1-walk")
@@ -71,8 +71,12 @@ HEADLINE = {
 """The figures robustness.md and the heatmap show per task family (robustness.json has every metric)."""
 
 
-def headline(task: str) -> list[tuple[str, str]]:
-    return HEADLINE["walk" if task.startswith("g1-walk") else "fall"]
+def headline(task: str, rows: list[dict] | None = None) -> list[tuple[str, str]]:
+    """The task's headline figures; with ``rows``, only those that some row has."""
+    figures = HEADLINE["walk" if task.startswith("g1-walk") else "fall"]
+    if rows is None:
+        return figures
+    return [(key, title) for key, title in figures if any(key in row["metrics"] for row in rows)]
 
 
 def run_robustness(path: str, config: dict, preferences, conditions: list[Condition], num_envs: int, episodes: int,
@@ -95,6 +99,7 @@ def run_robustness(path: str, config: dict, preferences, conditions: list[Condit
             rows.append({"condition": condition.name, "overrides": condition.overrides,
                          "preference": row["preference"], "episodes": row["episodes"], "metrics": row["metrics"]})
     return {"task": config["task"], "checkpoint": os.path.abspath(path),
+            "objectives": list(config["env"]["objective_names"]),
             "conditions": [c.name for c in conditions], "rows": rows}
 
 
@@ -107,14 +112,15 @@ def robustness_markdown(report: dict) -> str:
     cell = {(r["condition"], tuple(r["preference"])): r for r in report["rows"]}
     lines = [f"Deployment shifts of {report['checkpoint']} ({report['task']}); mean ± 95% interval half-width, "
              "rates with the Wilson 95% interval", ""]
-    for key, title in headline(report["task"]):
+    for key, title in headline(report["task"], report["rows"]):
         lines += [f"### {title}", "",
-                  "| Condition | " + " | ".join("(" + ", ".join(f"{x:.2f}" for x in p) + ")" for p in preferences)
+                  f"| Condition \\ lambda ({', '.join(report.get('objectives') or ['obj 1', 'obj 2'])}) | "
+                  + " | ".join("(" + ", ".join(f"{x:.2f}" for x in p) + ")" for p in preferences)
                   + " |", "|---|" + "---|" * len(preferences)]
         for condition in report["conditions"]:
             cells = []
             for p in preferences:
-                metrics = cell[(condition, tuple(p))]["metrics"]
+                metrics = cell[(condition, tuple(p))]["metrics"] if (condition, tuple(p)) in cell else {}
                 value = metrics.get(key)
                 cells.append(format_metric(np.nan if value is None else value, metrics.get(f"{key}_ci95"), key))
             lines.append(f"| {condition} | " + " | ".join(cells) + " |")
@@ -122,12 +128,35 @@ def robustness_markdown(report: dict) -> str:
     return "\n".join(lines)
 
 
+COLOUR_RANGE_FLOOR = {"forward_speed": 1.0, "energy_overall": 400.0}
+"""The least top of a continuous metric's colour scale (m/s, J/s): the scale starts at 0, so that 0.48 and
+0.62 m/s sit close together as they are, not at the two ends of a scale stretched between them."""
+
+
+def colour_range(key: str, values: np.ndarray) -> tuple[float, float]:
+    """(vmin, vmax) of a headline metric's colour scale: 0-100 for rates, else 0 to the larger of the highest value
+    and the metric's floor."""
+    if key in ("fall_rate", "success"):
+        return 0.0, 100.0
+    finite = values[np.isfinite(values)]
+    top = float(finite.max()) if finite.size else 1.0
+    return 0.0, max(top, COLOUR_RANGE_FLOOR.get(key, 0.0)) or 1.0
+
+
+def cell_text(key: str, value: float) -> str:
+    """A heatmap cell's figure: rates in % to one decimal (100 as 100), other figures to three significant digits."""
+    if key in ("fall_rate", "success"):
+        return "100" if value >= 99.95 else f"{value:.1f}"
+    return f"{value:.0f}" if abs(value) >= 100 else f"{value:.3g}"
+
+
 def plot_robustness(report: dict, path: str) -> str:
-    """Heatmap(s) preference x condition of the headline figures."""
+    """Heatmap(s) preference x condition of the headline figures, under a title naming the policy, each with its
+    own colour scale from 0 (rates 0-100%)."""
     from pchc_rsl.evaluation.plots import _pyplot
 
     plt = _pyplot()
-    figures = headline(report["task"])
+    figures = headline(report["task"], report["rows"])
     conditions = report["conditions"]
     preferences = []
     for row in report["rows"]:
@@ -137,10 +166,11 @@ def plot_robustness(report: dict, path: str) -> str:
     fig, axes = plt.subplots(1, len(figures), figsize=(3.2 + 2.2 * len(figures), 0.35 * len(conditions) + 1.6),
                              squeeze=False)
     for ax, (key, title) in zip(axes[0], figures):
-        values = np.array([[cell[(c, tuple(p))].get(key) for p in preferences] for c in conditions], dtype=float)
-        rate = key in ("fall_rate", "success")
+        values = np.array([[cell.get((c, tuple(p)), {}).get(key) for p in preferences] for c in conditions],
+                          dtype=float)
+        vmin, vmax = colour_range(key, values)
         image = ax.imshow(values, aspect="auto", cmap="viridis_r" if key == "fall_rate" else "viridis",
-                          vmin=0.0 if rate else None, vmax=100.0 if rate else None)
+                          vmin=vmin, vmax=vmax)
         ax.set_xticks(range(len(preferences)), ["(" + ", ".join(f"{x:.2g}" for x in p) + ")" for p in preferences],
                       fontsize=7, rotation=30)
         ax.set_yticks(range(len(conditions)), conditions if ax is axes[0][0] else [""] * len(conditions), fontsize=7)
@@ -149,10 +179,14 @@ def plot_robustness(report: dict, path: str) -> str:
                 if np.isfinite(values[i, j]):
                     r, g, b, _ = image.cmap(image.norm(values[i, j]))
                     ink = "k" if 0.299 * r + 0.587 * g + 0.114 * b > 0.5 else "w"
-                    ax.text(j, i, f"{values[i, j]:.0f}" if abs(values[i, j]) >= 10 else f"{values[i, j]:.2f}",
-                            ha="center", va="center", fontsize=6, color=ink)
+                    ax.text(j, i, cell_text(key, values[i, j]), ha="center", va="center", fontsize=6, color=ink)
         ax.set_title(title, fontsize=9)
+        ax.set_xlabel("lambda (" + ", ".join(report.get("objectives") or ["obj 1", "obj 2"]) + ")", fontsize=7)
         fig.colorbar(image, ax=ax, shrink=0.8)
+    episodes = sorted({r["episodes"] for r in report["rows"]})
+    fig.suptitle(f"{os.path.basename(report['checkpoint'])} ({report['task']}) under deployment shifts\nmild "
+                 f"pushes, {'-'.join(str(e) for e in episodes[::max(1, len(episodes) - 1)])} episodes per cell",
+                 fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)

@@ -1,5 +1,5 @@
-"""Building an environment and a runner from a TaskConfig, and a TaskConfig from a checkpoint: shared by the CLIs
-and the tests."""
+"""Building an environment and a runner from a TaskConfig, and a TaskConfig from a checkpoint: the one way the CLIs,
+the evaluation, the tools and the tests build them."""
 
 from __future__ import annotations
 

@@ -58,7 +58,7 @@ def check_physics(backend: str | None) -> None:
             import mujoco_warp  # noqa: F401
         except ImportError:
             raise ValueError("--physics warp needs MuJoCo Warp, which is not installed: "
-                             "pip install 'pchc-rsl[warp]'.") from None
+                             "pip install -e \".[warp]\".") from None
 
 
 def check_device(device: str) -> None:
