@@ -10,8 +10,9 @@ REAL_TIME_BOUND = 0.9
 
 def behind_real_time(report: dict) -> str:
     """One line for a bridge report that fell behind: what happened, why it matters, what to do."""
+    slower = " or simulate at 200 Hz (--timestep 0.005)," if report["timestep"] < 0.005 else ""
     return (f"the simulation fell behind real time: {report['sim_time']:.1f} s simulated in {report['wall_s']:.1f} s "
             f"(real-time factor {report['real_time_factor']:.2f}, bound {REAL_TIME_BOUND}), {report['late_share']:.0%} "
             f"of physics steps late, slowest step {report['slowest_step_ms']:.0f} ms. This machine is too busy for "
             f"{1 / report['timestep']:.0f} Hz physics in real time, so the run is no sim-to-sim result: close other "
-            "programs, or simulate at 200 Hz (--timestep 0.005), or use --mujoco (lockstep, no real time needed).")
+            f"programs,{slower} or use --mujoco (lockstep, no real time needed).")

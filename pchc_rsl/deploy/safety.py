@@ -101,7 +101,8 @@ class SafetyStateMachine:
             q = state.q[self.policy_index]
             out = (q < self.joint_range[:, 0] - JOINT_MARGIN) | (q > self.joint_range[:, 1] + JOINT_MARGIN)
             if out.any():
-                return f"joint {int(self.policy_index[np.argmax(out)])} outside its range ({q[np.argmax(out)]:.2f} rad)"
+                joint = MOTOR_JOINTS[int(self.policy_index[np.argmax(out)])]
+                return f"{joint} outside its range ({q[np.argmax(out)]:.2f} rad)"
         return self._collapse(state, now)
 
     def _collapse(self, state: RobotState, now: float) -> str:
