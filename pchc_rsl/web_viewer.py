@@ -129,18 +129,19 @@ class WebViewer:
 
             from pchc_rsl.envs.g1_render import visual_model
 
+            self.plot = None
+            self._build_gui()  # the controls go out before the meshes, which take long to reach a browser
             self.model = visual_model(env)
             self.data = mujoco.MjData(self.model)
             self.scene = ViserMujocoScene(self.server, self.model, num_envs=1)  # follows the pelvis: it stays at 0
             self.server.initial_camera.position = (2.2, -2.2, 0.5)
             self.server.initial_camera.look_at = (0.0, 0.0, -0.25)
-            self.plot = None
         else:
             from pchc_rsl.envs.toy_render import ToyPlot
 
             self.scene, self.plot = None, ToyPlot(env, 480, 360)
             self.plot.record()
-        self._build_gui()
+            self._build_gui()
         self._show()
 
     # ------------------------------------------------------------------ the page
@@ -174,7 +175,9 @@ class WebViewer:
         series = [{"label": "t (s)"}, {"label": "task", "stroke": "gray"}]
         series += [{"label": n, "stroke": colors[i % 4]} for i, n in enumerate(names)]
         empty = tuple(np.zeros(2) for _ in series)
-        self.reward_plot = gui.add_uplot(empty, tuple(series), title="rewards per step", aspect=1.6)
+        self.reward_plot = gui.add_uplot(empty, tuple(series), title="rewards per step", aspect=1.6,
+                                         scales={"x": {"time": False}},  # seconds since the start, not dates
+                                         axes=({"label": "t (s)"}, {}))
         self.metrics_text = gui.add_markdown("")
 
     # ------------------------------------------------------------------ controls (any thread)

@@ -757,7 +757,7 @@ def test_a_missing_sdk_names_the_extra(monkeypatch):
         return real_import(name, *args, **kwargs)
 
     monkeypatch.setattr(builtins, "__import__", no_sdk)
-    with pytest.raises(sdk.SdkMissing, match=r"pchc-rsl\[deploy\]"):
+    with pytest.raises(sdk.SdkMissing, match=r"pip install -e \"\.\[deploy\]\""):
         sdk.sdk()
 
 

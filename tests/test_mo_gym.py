@@ -96,7 +96,7 @@ def test_wrong_objective_names_and_missing_extra_fail_clearly(monkeypatch):
     with pytest.raises(ValueError, match="2 objectives"):
         MOGymVecEnv(MOGymEnvConfig(env_id=HOPPER, objective_names=["a", "b", "c"]), 1)
     monkeypatch.setitem(sys.modules, "mo_gymnasium", None)
-    with pytest.raises(ImportError, match=r"pchc-rsl\[mo-gym\]"):
+    with pytest.raises(ImportError, match=r"pip install -e \"\.\[mo-gym\]\""):
         make_mo_env(HOPPER)
 
 

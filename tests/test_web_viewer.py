@@ -68,7 +68,7 @@ def test_a_missing_viser_names_the_extra(monkeypatch):
         return real_import(name, *args, **kwargs)
 
     monkeypatch.setattr(builtins, "__import__", no_viser)
-    with pytest.raises(WebViewerUnavailable, match=r"pchc-rsl\[web\]"):
+    with pytest.raises(WebViewerUnavailable, match=r"pip install -e \"\.\[web\]\""):
         web_viewer.require_viser()
 
 
