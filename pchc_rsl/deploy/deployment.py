@@ -141,6 +141,7 @@ class Deployment:
         self.command = Command(policy.command_ranges, command)
         self.remote = RemoteEdges()
         self.sticks_active = False
+        self._stick_shown, self._stick_shown_at = "", -1.0
         self.record = DeployLog()
         self.quit_requested = False
         self.policy_since: float | None = None
@@ -161,7 +162,7 @@ class Deployment:
         for key in actions:
             self._act(key, state, now)
         if sticks is not None:
-            self._steer(sticks)
+            self._steer(sticks, now)
         if self.auto is not None:
             self.auto.request(self.safety, state, now)
         if now - self._shown >= 0.25:
@@ -171,14 +172,15 @@ class Deployment:
                     source.show(self.safety.mode.value, self.safety.reason, self.preference.value, command)
             self._shown = now
 
-    def _steer(self, sticks: tuple[float, float, float]) -> None:
-        """The remote's sticks own the command while any is off centre; letting them all go stops the robot."""
+    def _steer(self, sticks: tuple[float, float, float], now: float) -> None:
+        """The remote's sticks own the command while any is off centre; letting them all go stops the robot. The
+        command a stick sets is shown at most twice a second (it changes at every tick while the stick moves)."""
         if any(sticks):
-            before = str(self.command)
             for note in self.command.from_sticks(*sticks):
                 self.log(note)
             self.sticks_active = True
-            if str(self.command) != before:
+            if str(self.command) != self._stick_shown and now - self._stick_shown_at >= 0.5:
+                self._stick_shown, self._stick_shown_at = str(self.command), now
                 self._show_change()
         elif self.sticks_active:
             self.sticks_active = False

@@ -124,9 +124,10 @@ class Command:
     def set(self, k: int, value: float) -> str:
         """Set component k (clipped to its range); '' or, the first time only, why it was refused."""
         if not self.trained(k):
-            if value == 0.0 or k in self._refused:
+            tag = k if self.ranges is not None else -1  # without a command at all: one line for every component
+            if value == 0.0 or tag in self._refused:
                 return ""
-            self._refused.add(k)
+            self._refused.add(tag)
             return self.refusal(k)
         self.value[k] = float(np.clip(round(value, 3), self.low[k], self.high[k]))
         return ""
