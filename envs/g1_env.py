@@ -455,6 +455,9 @@ class G1Env(VecEnv):
             "objective_names": list(self.cfg.objective_names),
             "preference_size": self.num_objectives,
             "held_joints": {j: list(holding_gains(j)) for j in self.cfg.held_joints},  # trained held by PD: kp, kd
+            # the velocity command's trained ranges (lin_vel_x, lin_vel_y, ang_vel_z: [low, high]); {} without one
+            "command_ranges": ({k: [float(lo), float(hi)] for k, (lo, hi) in self.cfg.command_ranges.items()}
+                               if self.cfg.use_command else {}),
         }
 
     # ---------------------------------------------------------------- checkpointed state

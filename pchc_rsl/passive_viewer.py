@@ -12,6 +12,8 @@ import threading
 import time
 from collections import deque
 
+from pchc_rsl.steering import set_command, trained_ranges
+
 LAMBDA_STEP = 0.1
 """How far one key press moves lambda along the simplex."""
 
@@ -33,13 +35,21 @@ def passive_viewer(model, data, **kwargs):
 
 
 RIGHT, LEFT, SPACE, BACKSPACE = 262, 263, 32, 259
+UP, DOWN, PAGE_UP, PAGE_DOWN, HOME, END = 265, 264, 266, 267, 268, 269
 """GLFW key codes of the keys the passive viewer leaves to its user (its letters toggle rendering flags)."""
 KEYS = {RIGHT: "right", LEFT: "left", SPACE: "push", BACKSPACE: "reset"}
+COMMAND_KEYS = {UP: (0, 0.1), DOWN: (0, -0.1), PAGE_UP: (1, 0.1), PAGE_DOWN: (1, -0.1), HOME: (2, 0.1),
+                END: (2, -0.1)}
+"""key -> (command component, change): forward m/s, lateral m/s (Page Up: left), yaw rate rad/s (Home: left)."""
 
 
-def key_help(objective_names: list[str]) -> str:
+def key_help(objective_names: list[str], steered: tuple[str, ...] = ()) -> str:
+    """``steered``: the command components the policy takes (lin_vel_x, lin_vel_y, ang_vel_z)."""
     first, second = objective_names
-    return f"Left: more {first}\nRight: more {second}\nSpace: push\nBackspace: reset"
+    lines = [f"Left: more {first}", f"Right: more {second}", "Space: push", "Backspace: reset"]
+    words = {"lin_vel_x": "Up/Down: forward +/- 0.1 m/s", "lin_vel_y": "PgUp/PgDn: left/right 0.1 m/s",
+             "ang_vel_z": "Home/End: turn left/right 0.1 rad/s"}
+    return "\n".join(lines + [words[k] for k in steered])
 
 
 class LiveControls:
@@ -51,6 +61,8 @@ class LiveControls:
     def on_key(self, keycode: int) -> None:
         if keycode in KEYS:
             self.pending.append(KEYS[keycode])
+        elif keycode in COMMAND_KEYS:
+            self.pending.append(COMMAND_KEYS[keycode])
 
     def apply(self) -> bool:
         """Apply the queued keys; True if any did (the policy then needs fresh observations)."""
@@ -67,6 +79,9 @@ class LiveControls:
                 env.pushes.countdown[:] = 1  # the next step pushes, at the preset's strength, in a random direction
             elif action == "reset":
                 env.reset()
+            elif isinstance(action, tuple):  # (command component, change)
+                component, delta = action
+                set_command(env, component, float(env.commands[0, component]) + delta)
         return changed
 
 
@@ -110,7 +125,8 @@ def run_viewer(env, policy, preference, seconds: float | None) -> int:
                 handle.set_texts([
                     (None, mujoco.mjtGridPos.mjGRID_TOPLEFT, "\n".join(n for n, _ in rows),
                      "\n".join(v for _, v in rows)),
-                    (None, mujoco.mjtGridPos.mjGRID_BOTTOMLEFT, key_help(env.cfg.objective_names), ""),
+                    (None, mujoco.mjtGridPos.mjGRID_BOTTOMLEFT,
+                     key_help(env.cfg.objective_names, tuple(trained_ranges(env.cfg))), ""),
                 ])
                 handle.sync()
                 time.sleep(max(0.0, env.dt - (time.perf_counter() - start)))

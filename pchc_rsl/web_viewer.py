@@ -17,6 +17,8 @@ import time
 
 import numpy as np
 
+from pchc_rsl.steering import COMMAND_COMPONENTS, COMMAND_LABELS, set_command, trained_ranges
+
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8080
 HISTORY_S = 5.0
@@ -86,11 +88,16 @@ def preference_markdown(names: list[str], preference) -> str:
     return "lambda = (" + ", ".join(f"{n} **{float(v):.2f}**" for n, v in zip(names, preference)) + ")"
 
 
-def add_command_control(gui, initial: float, on_change):
-    """The walking command's forward speed, as the walking task trains it (0 to 1 m/s)."""
-    command = gui.add_slider("forward speed (m/s)", 0.0, 1.0, 0.05, float(initial))
-    command.on_update(lambda _: on_change(command.value))
-    return command
+def add_command_controls(gui, cfg, initial, on_change) -> dict:
+    """One slider per command component the task trains (forward, lateral, yaw rate), over its trained range;
+    ``on_change(component, value)`` runs on viser's thread. Returns the sliders by component."""
+    sliders = {}
+    for key, (low, high) in trained_ranges(cfg).items():
+        k = COMMAND_COMPONENTS.index(key)
+        slider = gui.add_slider(COMMAND_LABELS[key], low, high, 0.05, min(high, max(low, float(initial[k]))))
+        slider.on_update(lambda _, k=k, slider=slider: on_change(k, slider.value))
+        sliders[key] = slider
+    return sliders
 
 
 class WebViewer:
@@ -122,18 +129,19 @@ class WebViewer:
 
             from pchc_rsl.envs.g1_render import visual_model
 
+            self.plot = None
+            self._build_gui()  # the controls go out before the meshes, which take long to reach a browser
             self.model = visual_model(env)
             self.data = mujoco.MjData(self.model)
             self.scene = ViserMujocoScene(self.server, self.model, num_envs=1)  # follows the pelvis: it stays at 0
             self.server.initial_camera.position = (2.2, -2.2, 0.5)
             self.server.initial_camera.look_at = (0.0, 0.0, -0.25)
-            self.plot = None
         else:
             from pchc_rsl.envs.toy_render import ToyPlot
 
             self.scene, self.plot = None, ToyPlot(env, 480, 360)
             self.plot.record()
-        self._build_gui()
+            self._build_gui()
         self._show()
 
     # ------------------------------------------------------------------ the page
@@ -145,9 +153,11 @@ class WebViewer:
         with gui.add_folder("Preference lambda"):
             self.preference_sliders, self.preference_text = add_preference_controls(
                 gui, names, env.preference[0].tolist(), lambda lam: self.queue("preference", lam))
-        if getattr(env.cfg, "use_command", False):
+        self.command_sliders = {}
+        if trained_ranges(env.cfg):
             with gui.add_folder("Command"):
-                add_command_control(gui, float(env.commands[0, 0]), lambda v: self.queue("command", v))
+                self.command_sliders = add_command_controls(gui, env.cfg, env.commands[0].tolist(),
+                                                            lambda k, v: self.queue("command", (k, v)))
         if self.is_g1:
             with gui.add_folder("Push"):
                 strength = gui.add_dropdown("strength", tuple(self.pushes) or ("preset",))
@@ -165,7 +175,9 @@ class WebViewer:
         series = [{"label": "t (s)"}, {"label": "task", "stroke": "gray"}]
         series += [{"label": n, "stroke": colors[i % 4]} for i, n in enumerate(names)]
         empty = tuple(np.zeros(2) for _ in series)
-        self.reward_plot = gui.add_uplot(empty, tuple(series), title="rewards per step", aspect=1.6)
+        self.reward_plot = gui.add_uplot(empty, tuple(series), title="rewards per step", aspect=1.6,
+                                         scales={"x": {"time": False}},  # seconds since the start, not dates
+                                         axes=({"label": "t (s)"}, {}))
         self.metrics_text = gui.add_markdown("")
 
     # ------------------------------------------------------------------ controls (any thread)
@@ -186,9 +198,8 @@ class WebViewer:
             if action == "preference":
                 env.set_preference(torch.tensor(value, dtype=torch.float32))
                 changed = True
-            elif action == "command":
-                env.commands[0, 0] = float(value)
-                changed = True
+            elif action == "command":  # (component, value)
+                changed = set_command(env, *value) or changed
             elif action == "push":
                 self._push(*value)
             elif action == "reset":

@@ -148,8 +148,18 @@ def test_keys_move_lambda_push_and_reset(walk_checkpoint):
         for key in (passive_viewer.RIGHT, passive_viewer.RIGHT, passive_viewer.LEFT, passive_viewer.RIGHT):
             controls.on_key(key)
         controls.on_key(ord("A"))  # not ours: ignored
+        from pchc_rsl.steering import COMMAND_COMPONENTS, trained_ranges
+
+        before = env.commands[0].clone()
+        for key in (passive_viewer.UP, passive_viewer.UP, passive_viewer.PAGE_UP, passive_viewer.HOME):
+            controls.on_key(key)
         assert controls.apply()
         assert env.preference[0].tolist() == pytest.approx([0.3, 0.7])
+        ranges = trained_ranges(env.cfg)
+        for k, delta in enumerate((0.2, 0.1, 0.1)):  # each clipped to its trained range, untrained ones untouched
+            key = COMMAND_COMPONENTS[k]
+            expected = min(max(float(before[k]) + delta, ranges[key][0]), ranges[key][1]) if key in ranges else before[k]
+            assert float(env.commands[0, k]) == pytest.approx(float(expected), abs=1e-3)
         for _ in range(10):
             controls.on_key(passive_viewer.RIGHT)
         controls.apply()

@@ -101,13 +101,17 @@ def test_the_scene_holds_every_visible_body_of_the_g1(walk_viewer):
 def test_the_controls_change_the_env(walk_viewer):
     env = walk_viewer.env
     walk_viewer.preference_sliders[0].value = 0.8  # as the page sets it: the slider's callback queues lambda
-    walk_viewer.queue("command", 0.3)
+    walk_viewer.queue("command", (0, 0.3))
     walk_viewer.queue("pause", True)
     walk_viewer.queue("step")
     walk_viewer.queue("speed", 0.5)
     assert walk_viewer.apply_pending()
     assert env.preference[0].tolist() == pytest.approx([0.2, 0.8])
     assert float(env.commands[0, 0]) == pytest.approx(0.3)
+    assert list(walk_viewer.command_sliders) == ["lin_vel_x"]  # the shipped walker trained forward speed only
+    walk_viewer.queue("command", (1, 0.3))  # a lateral speed it was not trained with: not applied
+    walk_viewer.apply_pending()
+    assert float(env.commands[0, 1]) == 0.0
     assert walk_viewer.paused and walk_viewer.steps_requested == 1 and walk_viewer.speed == 0.5
     assert walk_viewer.obs["preference"][0].tolist() == pytest.approx([0.2, 0.8])  # the policy sees the new lambda
     walk_viewer.preference_sliders[0].value = 0.5  # back where the page starts (the fixture is shared)

@@ -3,6 +3,7 @@ bridge on loopback (--sim), or in-process MuJoCo without DDS (--mujoco); one cod
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import random
@@ -16,33 +17,56 @@ from pchc_rsl.cli.sim_bridge import add_simulation_arguments
 PROG = "pchc-deploy"
 
 
+def command_vector(text: str) -> list[float]:
+    """``VX`` or ``VX,VY,WZ``: forward and lateral speed (m/s), yaw rate (rad/s)."""
+    try:
+        values = [float(x) for x in text.split(",")]
+    except ValueError:
+        values = []
+    if len(values) not in (1, 3):
+        raise argparse.ArgumentTypeError(f"must be VX or VX,VY,WZ (forward m/s, lateral m/s, yaw rate rad/s), "
+                                         f"got '{text}'")
+    return values + [0.0] * (3 - len(values))
+
+
 def main(argv: list[str] | None = None) -> None:
     from pchc_rsl.deploy.live_controls import KEY_HELP, REMOTE_HELP
 
     parser = arguments.Parser(
         prog=PROG,
         description="Run a policy exported by pchc-export-onnx on a G1: wait for rt/lowstate -> zero torque -> "
-        "ramp to the default pose (2 s) -> hold -> policy -> damping. Joints the policy does not drive are held at "
-        "the default pose. The watchdog damps on a stale LowState, a tilt past 53 degrees or a joint outside its "
-        f"range. {KEY_HELP}. {REMOTE_HELP}.",
+        "ramp to the default pose (2 s) -> hold -> policy -> damping. LowCmd goes out at --lowcmd-hz (500) while "
+        "the policy runs at its own rate. Joints the policy does not drive are held at the default pose. The "
+        "watchdog damps on a stale LowState, a tilt past 53 degrees, a joint outside its range or a collapse (a "
+        f"hip pitch, knee or ankle pitch far from its target). {KEY_HELP}. {REMOTE_HELP}. The operator's guide is "
+        "docs/deploy.md.",
     )
     parser.add_argument("policy", metavar="POLICY.onnx")
     where = parser.add_mutually_exclusive_group(required=True)
     where.add_argument("--network", metavar="IFACE", help="the real robot, on this network interface (e.g. eth0)")
     where.add_argument("--sim", action="store_true",
-                       help="start pchc-sim-bridge on loopback with a fresh domain id and run the whole sequence "
-                       "without keys: zero torque 0.5 s, ramp 2 s, hold 1 s, policy for --seconds, damping")
+                       help="start pchc-sim-bridge on loopback and run the whole sequence without keys: zero torque "
+                       "0.5 s, ramp 2 s, hold (--hold-seconds), policy for --seconds, damping; exits non-zero when "
+                       "the simulation could not keep real time")
     where.add_argument("--mujoco", action="store_true",
                        help="in-process MuJoCo, no DDS, in lockstep (as fast as it computes); same sequence as --sim")
-    parser.add_argument("--domain", type=int, default=0, help="DDS domain id for --network (default 0, the robot's)")
+    parser.add_argument("--domain", type=int, default=None,
+                        help="DDS domain id (--network: default 0, the robot's; --sim: default a random one)")
+    parser.add_argument("--lowcmd-hz", type=arguments.positive_float, default=500.0, metavar="HZ",
+                        help="rate at which LowCmd is written, each message the newest targets and gains with its CRC "
+                        "(default 500, the G1's low-level rate; from the policy's rate to 1000)")
     parser.add_argument("--preference", type=arguments.preference, metavar="L1,L2", help="lambda to start with "
                         "(default: the middle of the simplex)")
-    parser.add_argument("--command", type=float, default=None, metavar="VX",
-                        help="walking: forward speed command in m/s (default 0.5 with --sim/--mujoco, 0 on a robot)")
+    parser.add_argument("--command", type=command_vector, default=None, metavar="VX[,VY,WZ]",
+                        help="walking: forward and lateral speed in m/s, yaw rate in rad/s, within the ranges the "
+                        "policy was trained in (default 0.5,0,0 with --sim/--mujoco, 0 on a robot)")
     parser.add_argument("--seconds", type=arguments.positive_float,
                         help="--sim/--mujoco: seconds of policy (default 10); robot: stop after this long")
-    parser.add_argument("--report", metavar="FILE.json", help="write the run's report (fell, base distance, "
-                        "messages sent and received, loop overruns, the mode changes)")
+    parser.add_argument("--hold-seconds", type=arguments.positive_float, default=1.0, metavar="S",
+                        help="--sim/--mujoco: seconds in HOLD before the policy starts (default 1); with --hold-up "
+                        "shorter than the whole start, the robot stands on its own for the rest")
+    parser.add_argument("--report", metavar="FILE.json", help="write the run's report as JSON (mode changes, "
+                        "messages and rates, loop timing; with --sim/--mujoco: fell, distance, real-time figures)")
     add_simulation_arguments(parser)
     parser.add_argument("--sim-viewer", action="store_true", help="--sim: show the bridge's MuJoCo viewer")
     parser.add_argument("--web", type=int, metavar="PORT", help="also serve a browser console on 127.0.0.1:PORT "
@@ -55,65 +79,95 @@ def main(argv: list[str] | None = None) -> None:
         parser.error(f"--report {args.report} is a folder; give a file such as {args.report}/deploy.json")
     if args.web is not None and args.mujoco:
         parser.error("--web steers a deploy that runs in real time: use it with --sim or --network")
+    if args.domain is not None and not 0 <= args.domain <= 232:
+        parser.error(f"--domain must be a DDS domain id in [0, 232], got {args.domain}")
     simulated = args.sim or args.mujoco
     seconds = args.seconds if args.seconds is not None or not simulated else 10.0
-    command = args.command if args.command is not None else (0.5 if simulated else 0.0)
     try:
-        report = deploy(args, seconds, command)
+        setup = checked_setup(args, simulated)
+        report = deploy(args, seconds, setup)
     except KeyboardInterrupt:  # before the loop took over Ctrl-C (which damps, then exits)
         raise SystemExit(f"{PROG}: interrupted before the deploy loop started; nothing was sent") from None
     except Exception as error:  # noqa: BLE001 - every failure is reported in one line unless -v
         if args.verbose:
             raise
-        raise SystemExit(f"{PROG}: {str(error).strip().splitlines()[0] if str(error).strip() else error!r}") from None
+        raise SystemExit(f"{PROG}: {one_line(error)}") from None
     if args.report:
         with open(args.report, "w") as f:
             json.dump(report, f, indent=1)
-    summary = {k: report[k] for k in ("final_mode", "reason", "policy_seconds", "messages_sent",
-                                       "messages_received") if k in report}
-    if "fell" in report:
-        summary |= {"fell": report["fell"], "base_distance": report["base_distance"]}
-    print(f"{PROG}: {json.dumps(summary)}")
+    print("\n".join(summary_lines(report, args.report)), flush=True)
+    bridge = report.get("bridge")
+    if bridge is not None and not bridge["kept_real_time"]:
+        from pchc_rsl.deploy.real_time import behind_real_time
+
+        raise SystemExit(f"{PROG}: {behind_real_time(bridge)}")
 
 
-def deploy(args, seconds: float | None, command: float) -> dict:
+def one_line(error: BaseException) -> str:
+    text = str(error).strip()
+    return text.splitlines()[0] if text else type(error).__name__
+
+
+def checked_setup(args, simulated: bool) -> dict:
+    """Everything the arguments must agree with the policy file on, checked from its metadata before the network,
+    torch or DDS load: the preference, the command, the LowCmd rate."""
+    from pchc_rsl.deploy.live_controls import Command, check_preference, command_ranges_of
+    from pchc_rsl.deploy.lowcmd_stream import check_lowcmd_rate
+    from pchc_rsl.deploy.policy_file import read_metadata
+
+    meta = read_metadata(args.policy)
+    names = list(meta["objective_names"])
+    preference = check_preference(args.preference if args.preference else [1.0 / len(names)] * len(names), names)
+    check_lowcmd_rate(args.lowcmd_hz, 1.0 / float(meta["control_period_s"]))
+    ranges, note = command_ranges_of(meta)
+    if args.command is not None:
+        command = args.command
+    else:
+        command = [0.5 if simulated and ranges is not None else 0.0, 0.0, 0.0]
+    Command(ranges, command)  # refuses a component the policy was not trained with, or a value outside its range
+    return {"preference": preference, "command": command, "command_note": note}
+
+
+def deploy(args, seconds: float | None, setup: dict) -> dict:
     from pchc_rsl.deploy.deployment import AutoSequence, Deployment, InProcessRobot, WallClockRobot
     from pchc_rsl.deploy.live_controls import KEY_HELP, KeyReader
     from pchc_rsl.deploy.policy_step import PolicyStep
-    from pchc_rsl.preference import validate_preference
 
     policy = PolicyStep(args.policy)
-    m = len(policy.objective_names)
-    preference = args.preference or [1.0 / m] * m
-    validate_preference(preference, m)
+    preference, command = setup["preference"], setup["command"]
     print(f"{PROG}: {policy.task} policy, {len(policy.joints.policy_joints)} of 29 joints driven, objectives "
-          f"{', '.join(policy.objective_names)}, {1 / policy.control_period:.0f} Hz", flush=True)
-    auto = AutoSequence() if (args.sim or args.mujoco) else None
+          f"{', '.join(policy.objective_names)}, {1 / policy.control_period:.0f} Hz policy, LowCmd at "
+          f"{args.lowcmd_hz:g} Hz", flush=True)
+    if setup["command_note"]:
+        print(f"{PROG}: {setup['command_note']}", flush=True)
+    auto = AutoSequence(hold_s=args.hold_seconds) if (args.sim or args.mujoco) else None
     if args.mujoco:
         from pchc_rsl.deploy.simulator import G1Simulator
 
         sim = G1Simulator(timestep=args.timestep, latency_s=args.latency_ms / 1e3, jitter_s=args.jitter_ms / 1e3,
-                          hold_up_s=args.hold_up)
-        run = Deployment(policy, InProcessRobot(sim, policy.control_period), preference, command, auto)
+                          hold_up_s=args.hold_up, pd_on_arrival=args.pd_on_arrival)
+        run = Deployment(policy, InProcessRobot(sim, policy.control_period, args.lowcmd_hz), preference, command, auto)
         run.run(seconds)
-        return with_fall(run.report(), sim.fell, sim.driven_distance())
+        return with_fall(run.report(), sim.fell, sim.driven_distance()) | {
+            "min_height_after_release": sim.min_height_after_release}
 
     from pchc_rsl.deploy.sdk import DdsRobot
 
     bridge, bridge_report = None, None
     if args.sim:
-        domain, interface = random.randint(100, 232), "lo"
+        domain, interface = (random.randint(100, 232) if args.domain is None else args.domain), "lo"
         bridge_report = os.path.join(tempfile.mkdtemp(prefix="pchc-sim-bridge-"), "bridge.json")
         bridge = subprocess.Popen(
             [sys.executable, "-m", "pchc_rsl.cli.sim_bridge", "--domain", str(domain), "--network", interface,
              "--timestep", str(args.timestep), "--latency-ms", str(args.latency_ms), "--jitter-ms",
-             str(args.jitter_ms), "--hold-up", str(args.hold_up), "--report", bridge_report]
-            + (["--viewer"] if args.sim_viewer else []))
+             str(args.jitter_ms), "--hold-up", str(args.hold_up), "--report", bridge_report,
+             "--parent-pid", str(os.getpid())]
+            + (["--viewer"] if args.sim_viewer else []) + (["--pd-on-arrival"] if args.pd_on_arrival else []))
     else:
-        domain, interface = args.domain, args.network
+        domain, interface = (0 if args.domain is None else args.domain), args.network
     keys = console = None
     try:
-        dds = DdsRobot(domain, interface)
+        dds = DdsRobot(domain, interface, args.lowcmd_hz)
         keys = KeyReader()
         if keys.active:
             print(f"{PROG}: {KEY_HELP}", flush=True)
@@ -121,16 +175,16 @@ def deploy(args, seconds: float | None, command: float) -> dict:
         if args.web is not None:
             from pchc_rsl.deploy.web_console import DeployConsole
 
-            console = DeployConsole(policy.objective_names, preference, command if policy.uses_command else None,
-                                    port=args.web)
+            console = DeployConsole(policy.objective_names, preference, policy.command_ranges, command, port=args.web)
             inputs.append(console)
             print(f"{PROG}: console at {console.url}", flush=True)
         run = Deployment(policy, WallClockRobot(dds, policy.control_period), preference, command, auto, inputs)
-        run.run(seconds, no_state_hint=f" on interface {interface}, DDS domain {domain}"
-                + ("" if args.sim else "; is the robot on, in debug mode (L2+R2), and on that interface?"),
-                no_state_timeout=30.0 if args.sim else 3.0)  # the bridge takes seconds to start on a busy machine
+        try:
+            run.run(seconds, no_state_hint=no_state_hint(dds, interface, domain, args.sim),
+                    no_state_timeout=30.0 if args.sim else 3.0)  # the bridge takes seconds to start on a busy machine
+        finally:
+            dds.close()  # the stream's last messages were the damping the run ended with
         report = run.report()
-        dds.close()
     finally:
         if keys is not None:
             keys.close()
@@ -139,7 +193,7 @@ def deploy(args, seconds: float | None, command: float) -> dict:
         if bridge is not None:
             bridge.terminate()
             try:
-                bridge.wait(timeout=10)
+                bridge.wait(timeout=20)
             except subprocess.TimeoutExpired:
                 bridge.kill()
     if bridge_report is not None and os.path.exists(bridge_report):
@@ -149,11 +203,48 @@ def deploy(args, seconds: float | None, command: float) -> dict:
     return report
 
 
+def no_state_hint(dds, interface: str, domain: int, simulated: bool) -> str:
+    where = f" on interface {interface}, DDS domain {domain}"
+    if dds.rejected:
+        return f"{where} ({dds.rejected} rejected: {dds.rejected_reason})"
+    return where + ("" if simulated else "; is the robot on, in debug mode (L2+R2), and on that interface?")
+
+
 def with_fall(report: dict, fell_in_sim: bool, distance: float) -> dict:
-    """The simulated robot fell: its pelvis dropped before damping, or the watchdog damped it for a tilt (it was
-    falling; the pelvis may reach the ground only after the damping began)."""
-    fell = bool(fell_in_sim) or report["reason"].startswith("tilt")
+    """The simulated robot fell: its pelvis dropped before damping, or the watchdog damped it for a tilt or a
+    collapse (it was falling; the pelvis may reach the ground only after the damping began)."""
+    fell = bool(fell_in_sim) or report["reason"].startswith(("tilt", "collapse"))
     return report | {"fell": fell, "base_distance": round(float(distance), 4)}
+
+
+def summary_lines(report: dict, report_file: str | None) -> list[str]:
+    """The end of a run for the operator's screen; the whole report is the --report JSON."""
+    reason = f" ({report['reason']})" if report["reason"] else ""
+    lines = [f"{PROG}: ended in {report['final_mode'].lower()}{reason} after {report['policy_seconds']:.1f} s of policy"]
+    stream = report.get("lowcmd")
+    if stream is not None:
+        priority = ("real-time priority" if stream["realtime_priority"] else
+                    "normal priority: root or CAP_SYS_NICE gives its thread real-time priority")
+        lines.append(f"  LowCmd: {report['messages_sent']} written at {stream['rate_hz']:g} Hz ({stream['loop_overruns']}"
+                     f" late ticks, worst {stream['loop_worst_late_ms']:.1f} ms; {priority}); LowState: "
+                     f"{report['messages_received']} received")
+    else:
+        lines.append(f"  LowCmd: {report['messages_sent']} applied; LowState: {report['messages_received']} read")
+    if "loop" in report:
+        loop = report["loop"]
+        lines.append(f"  control loop: {loop['ticks']} ticks, {loop['overruns']} late (worst {loop['worst_late_ms']:.1f} ms)")
+    if "fell" in report:
+        lines.append(f"  simulated robot: {'FELL' if report['fell'] else 'did not fall'}, walked "
+                     f"{report['base_distance']:.2f} m before damping")
+    bridge = report.get("bridge")
+    if bridge is not None:
+        lines.append(f"  simulation: {bridge['sim_time']:.1f} s simulated in {bridge['wall_s']:.1f} s (real-time factor "
+                     f"{bridge['real_time_factor']:.2f}), {bridge['late_share']:.0%} of physics steps late, slowest "
+                     f"{bridge['slowest_step_ms']:.1f} ms; {bridge['commands_received']} LowCmd received, "
+                     f"{bridge['commands_bad_crc']} with a bad CRC")
+    if report_file:
+        lines.append(f"  report: {report_file}")
+    return lines
 
 
 if __name__ == "__main__":

@@ -6,6 +6,7 @@ import argparse
 import signal
 
 from pchc_rsl.cli import arguments
+from pchc_rsl.deploy.real_time import behind_real_time
 
 PROG = "pchc-sim-bridge"
 
@@ -28,6 +29,11 @@ def add_simulation_arguments(parser) -> None:
     parser.add_argument("--hold-up", type=float, default=3.0, metavar="S",
                         help="hold the pelvis up by an elastic band for the first S seconds, as a gantry does while "
                         "the motors are off and ramping (default 3; 0: none)")
+    parser.add_argument("--pd-on-arrival", action="store_true",
+                        help="compute each motor's torque once when a LowCmd arrives and hold it until the next, as "
+                        "unitree_mujoco's simulate_python does (default: recompute the PD law at every physics step, "
+                        "as the G1's motor drivers do); with --latency-ms the torque is computed when the delayed "
+                        "command takes effect. Their default physics rate is --timestep 0.005")
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -35,7 +41,8 @@ def main(argv: list[str] | None = None) -> None:
         prog=PROG,
         description="Simulate the full 29-DoF Unitree G1 (mujoco-menagerie) behind unitree_sdk2's DDS topics: "
         "subscribes rt/lowcmd (CRC checked, each motor's PD law recomputed from the latest command at every "
-        "physics step, torques clipped to the motor limits, mode 0 = motor off) and publishes rt/lowstate "
+        "physics step, or held from its arrival with --pd-on-arrival, torques clipped to the motor limits, "
+        "mode 0 = motor off) and publishes rt/lowstate "
         "(tick, IMU, motor states, wireless_remote) at every step. Stop it with Ctrl-C.",
     )
     parser.add_argument("--domain", type=int, default=1, help="DDS domain id (default 1, as unitree_mujoco)")
@@ -45,6 +52,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--seed", type=arguments.seed, default=0, help="seed of the jitter")
     parser.add_argument("--report", metavar="FILE.json", help="write fell, distance and message counts on exit")
     parser.add_argument("--viewer", action="store_true", help="show MuJoCo's viewer (needs a display)")
+    parser.add_argument("--parent-pid", type=int, help=argparse.SUPPRESS)  # pchc-deploy --sim: stop with it
     args = parser.parse_args(argv)
     if not 0 <= args.domain <= 232:
         parser.error(f"--domain must be a DDS domain id in [0, 232], got {args.domain}")
@@ -55,9 +63,9 @@ def main(argv: list[str] | None = None) -> None:
         from pchc_rsl.deploy.simulator import G1Simulator, SimulationDiverged
 
         sim = G1Simulator(timestep=args.timestep, latency_s=args.latency_ms / 1e3, jitter_s=args.jitter_ms / 1e3,
-                          hold_up_s=args.hold_up, seed=args.seed, visual=args.viewer)
+                          hold_up_s=args.hold_up, seed=args.seed, visual=args.viewer, pd_on_arrival=args.pd_on_arrival)
         bridge = SimBridge(sim, lambda on_command: DdsBridgeEnd(args.domain, args.network, on_command),
-                           viewer=args.viewer)
+                           viewer=args.viewer, parent_pid=args.parent_pid)
     except (ValueError, SdkMissing) as error:
         raise SystemExit(f"{PROG}: {error}") from None
     signal.signal(signal.SIGTERM, lambda *_: bridge.stop.set())
@@ -72,9 +80,12 @@ def main(argv: list[str] | None = None) -> None:
         if args.report:
             bridge.write_report(args.report)
         report = bridge.report()
-        print(f"{PROG}: stopped after {report['sim_time']:.1f} s simulated; {report['commands_received']} LowCmd "
-              f"received ({report['commands_bad_crc']} with a bad CRC), {report['states_sent']} LowState sent, "
-              f"{report['loop']['overruns']} late steps", flush=True)
+        print(f"{PROG}: stopped after {report['sim_time']:.1f} s simulated in {report['wall_s']:.1f} s "
+              f"(real-time factor {report['real_time_factor']:.2f}); {report['commands_received']} LowCmd received "
+              f"({report['commands_bad_crc']} with a bad CRC), {report['states_sent']} LowState sent; "
+              f"{report['late_share']:.0%} of steps late, slowest step {report['slowest_step_ms']:.1f} ms", flush=True)
+        if not report["kept_real_time"]:
+            print(f"{PROG}: {behind_real_time(report)}", flush=True)
 
 
 if __name__ == "__main__":

@@ -11,13 +11,17 @@ import numpy as np
 
 from pchc_rsl.deploy.fixed_rate import FixedRateLoop
 from pchc_rsl.deploy.g1_motors import MOTOR_DEFAULT_POS, MOTOR_HOLD_KD, MOTOR_HOLD_KP, MOTOR_JOINTS
-from pchc_rsl.deploy.live_controls import Command, Preference, RemoteEdges
+from pchc_rsl.deploy.live_controls import (PREFERENCE_STEP, SPEED_STEP, YAW_STEP, Command, Preference, RemoteEdges,
+                                           stick_command)
 from pchc_rsl.deploy.policy_step import PolicyStep
 from pchc_rsl.deploy.robot_io import MotorCommand, Remote, RobotState
 from pchc_rsl.deploy.safety import Mode, SafetyStateMachine
 from pchc_rsl.deploy.simulator import G1Simulator
 
 NO_STATE_TIMEOUT_S = 3.0
+STEERING_KEYS = {"w": (0, SPEED_STEP), "x": (0, -SPEED_STEP), "a": (1, SPEED_STEP), "d": (1, -SPEED_STEP),
+                 "q": (2, YAW_STEP), "e": (2, -YAW_STEP)}
+"""key -> (command component, change): a and q go left (positive lateral speed and yaw rate, as in the G1's frame)."""
 
 
 class NoLowState(RuntimeError):
@@ -25,12 +29,17 @@ class NoLowState(RuntimeError):
 
 
 class InProcessRobot:
-    """The simulator driven in lockstep: each tick advances the physics by one control period (no wall clock)."""
+    """The simulator driven in lockstep: each tick advances the physics by one control period (no wall clock). The
+    newest command is handed to the simulator again at ``lowcmd_hz`` within the period, as the DDS stream writes it
+    (which matters where the simulator computes the torque when a command arrives)."""
 
-    def __init__(self, sim: G1Simulator, period_s: float) -> None:
+    def __init__(self, sim: G1Simulator, period_s: float, lowcmd_hz: float | None = None) -> None:
         self.sim, self.period = sim, period_s
         self.substeps = max(1, round(period_s / sim.model.opt.timestep))
-        self.received = self.sent = 0
+        self.lowcmd_period = 1.0 / lowcmd_hz if lowcmd_hz else period_s
+        self.received = self.sent = self.commands = 0
+        self.latest: MotorCommand | None = None
+        self.next_lowcmd = 0.0
         self.loop = None
 
     def now(self) -> float:
@@ -43,11 +52,18 @@ class InProcessRobot:
         return state
 
     def send(self, cmd: MotorCommand) -> None:
+        self.latest = cmd
+        self.commands += 1
         self.sim.apply(cmd)
         self.sent += 1
+        self.next_lowcmd = self.sim.time + self.lowcmd_period
 
     def wait_tick(self) -> None:
         for _ in range(self.substeps):
+            if self.latest is not None and self.sim.time >= self.next_lowcmd - 1e-9:
+                self.sim.apply(self.latest)
+                self.sent += 1
+                self.next_lowcmd += self.lowcmd_period
             self.sim.step()
 
 
@@ -78,6 +94,14 @@ class WallClockRobot:
     def sent(self) -> int:
         return self.dds.sent
 
+    @property
+    def commands(self) -> int:
+        return self.dds.commands
+
+    @property
+    def stream(self):
+        return getattr(self.dds, "stream", None)
+
 
 @dataclass
 class AutoSequence:
@@ -101,10 +125,10 @@ class DeployLog:
 
 
 class Deployment:
-    def __init__(self, policy: PolicyStep, robot, preference, command: float = 0.0, auto: AutoSequence | None = None,
-                 inputs: list = (), log=print) -> None:
-        """``inputs``: sources with ``pending()`` -> keys ('s', 'p', ...) or (name, value) settings: the terminal's
-        KeyReader, the browser console."""
+    def __init__(self, policy: PolicyStep, robot, preference, command=(0.0, 0.0, 0.0),
+                 auto: AutoSequence | None = None, inputs: list = (), log=print) -> None:
+        """``command``: (forward, lateral, yaw rate) to start with; ``inputs``: sources with ``pending()`` -> keys
+        ('s', 'p', ...) or (name, value) settings: the terminal's KeyReader, the browser console."""
         self.policy, self.robot, self.auto, self.inputs, self.log = policy, robot, auto, list(inputs), log
         joints = policy.joints
         kp, kd = MOTOR_HOLD_KP.copy(), MOTOR_HOLD_KD.copy()
@@ -114,62 +138,93 @@ class Deployment:
         self.default_pos = joints.to_motors(policy.default_pos, MOTOR_DEFAULT_POS)
         self.safety = SafetyStateMachine(kp, kd, self.default_pos, joints.motor_index, policy.joint_range)
         self.preference = Preference(preference, policy.objective_names)
-        self.command = Command(command)
+        self.command = Command(policy.command_ranges, command)
         self.remote = RemoteEdges()
+        self.sticks_active = False
+        self._stick_shown, self._stick_shown_at = "", -1.0
         self.record = DeployLog()
         self.quit_requested = False
         self.policy_since: float | None = None
+        self.policy_until: float | None = None
         self.started = robot.now()
         self._shown = -1.0
 
     # ------------------------------------------------------------------ input
     def _operator(self, state: RobotState | None, now: float) -> None:
         actions = [action for source in self.inputs for action in source.pending()]
+        sticks = None
         if state is not None:
-            pressed = self.remote.pressed(Remote.parse(state.remote).buttons)
-            names = {"start": "s", "A": "p", "select": "d", "B": "d", "L1": "[", "R1": "]", "up": "w", "down": "x"}
+            remote = Remote.parse(state.remote)
+            pressed = self.remote.pressed(remote.buttons)
+            names = {"start": "s", "A": "p", "select": " ", "B": " ", "L1": "[", "R1": "]", "up": "w", "down": "x"}
             actions += [names[b] for b in pressed if b in names]
+            sticks = stick_command(remote.lx, remote.ly, remote.rx)
         for key in actions:
             self._act(key, state, now)
+        if sticks is not None:
+            self._steer(sticks, now)
         if self.auto is not None:
             self.auto.request(self.safety, state, now)
         if now - self._shown >= 0.25:
-            command = float(self.command.value[0]) if self.policy.uses_command else None
+            command = self.command.value.copy() if self.policy.uses_command else None
             for source in self.inputs:
                 if hasattr(source, "show"):
                     source.show(self.safety.mode.value, self.safety.reason, self.preference.value, command)
             self._shown = now
 
-    def _act(self, key: str, state: RobotState | None, now: float) -> None:
+    def _steer(self, sticks: tuple[float, float, float], now: float) -> None:
+        """The remote's sticks own the command while any is off centre; letting them all go stops the robot. The
+        command a stick sets is shown at most twice a second (it changes at every tick while the stick moves)."""
+        if any(sticks):
+            for note in self.command.from_sticks(*sticks):
+                self.log(note)
+            self.sticks_active = True
+            if str(self.command) != self._stick_shown and now - self._stick_shown_at >= 0.5:
+                self._stick_shown, self._stick_shown_at = str(self.command), now
+                self._show_change()
+        elif self.sticks_active:
+            self.sticks_active = False
+            self.command.stop()
+            self._show_change()
+
+    def _show_change(self) -> None:
+        self.log(f"{self.preference}" + (f", {self.command}" if self.policy.uses_command else ""))
+
+    def _act(self, key, state: RobotState | None, now: float) -> None:
         before = (str(self.preference), str(self.command))
+        notes = []
         if isinstance(key, tuple):  # a setting from the browser console
             name, value = key
             if name == "preference":
                 self.preference.value = np.asarray(value, float)
             elif name == "command":
-                self.command.set(float(value))
+                notes = [self.command.set(k, float(v)) for k, v in enumerate(value)]
         elif key == "s":
             self.safety.request(Mode.RAMP, now, state)
         elif key == "p":
             self.safety.request(Mode.POLICY, now, state)
-        elif key in ("d", " "):
+        elif key == " ":
             self.safety.request(Mode.DAMPING, now, reason="operator")
-        elif key == "q":
+        elif key == "Q":
             self.safety.request(Mode.DAMPING, now, reason="quit")
             self.quit_requested = True
-        elif key in "[]":
+        elif key in ("[", "]"):
             self.preference.towards(0 if key == "[" else len(self.preference.value) - 1)
         elif key.isdigit() and 0 < int(key) <= len(self.preference.value):
             self.preference.selected = int(key) - 1
-        elif key in "+-":
-            self.preference.towards(self.preference.selected, 0.1 if key == "+" else -0.1)
-        elif key in "wx":
-            self.command.change(0.1 if key == "w" else -0.1)
+        elif key in ("+", "-"):
+            self.preference.towards(self.preference.selected, PREFERENCE_STEP if key == "+" else -PREFERENCE_STEP)
+        elif key in STEERING_KEYS:
+            component, delta = STEERING_KEYS[key]
+            notes = [self.command.change(component, delta)]
         elif key == "z":
-            self.command.set(0.0)
+            self.command.stop()
+        for note in notes:
+            if note:
+                self.log(note)
         after = (str(self.preference), str(self.command))
         if after != before:
-            self.log(f"{after[0]}" + (f", {after[1]}" if self.policy.uses_command else ""))
+            self._show_change()
 
     # ------------------------------------------------------------------ one control period
     def tick(self) -> None:
@@ -186,6 +241,8 @@ class Deployment:
             targets = self.policy.joints.to_motors(q, self.default_pos)
             self.record.trajectory.append((now - self.policy_since, self.policy.joints.to_policy(state.q)))
         cmd = self.safety.command(state, now, targets)
+        if mode_before is Mode.POLICY and self.safety.mode is not Mode.POLICY:
+            self.policy_until = now
         if self.safety.mode is not mode_before:
             reason = f" ({self.safety.reason})" if self.safety.reason else ""
             self.log(f"{self.safety.mode.value}{reason}")
@@ -212,6 +269,8 @@ class Deployment:
                         break
                 self.robot.wait_tick()
         except KeyboardInterrupt:
+            if self.safety.mode is Mode.POLICY:
+                self.policy_until = self.robot.now()
             self.safety.request(Mode.DAMPING, self.robot.now(), reason="Ctrl-C")
         finally:
             self._damp_out()
@@ -221,6 +280,8 @@ class Deployment:
             return
         now = self.robot.now()
         if self.safety.mode is not Mode.DAMPING:
+            if self.safety.mode is Mode.POLICY:
+                self.policy_until = now
             self.safety.request(Mode.DAMPING, now, reason=self.safety.reason or "end of run")
             self.log(f"damping ({self.safety.reason})")
         end = now + seconds
@@ -233,15 +294,18 @@ class Deployment:
     def report(self) -> dict:
         out = {"task": self.policy.task, "final_mode": self.safety.mode.name, "reason": self.safety.reason,
                "preference": [round(float(x), 4) for x in self.preference.value],
-               "policy_seconds": round(self.robot.now() - self.policy_since, 3) if self.policy_since is not None else 0,
+               "policy_seconds": (round((self.policy_until or self.robot.now()) - self.policy_since, 3)
+                                  if self.policy_since is not None else 0),
                "messages_received": int(self.robot.received), "messages_sent": int(self.robot.sent),
-               "events": self.record.events}
+               "commands": int(getattr(self.robot, "commands", 0)), "events": self.record.events}
         if self.record.trajectory:
             _, q = policy_trajectory(self.record)
             out["policy_joint_mean"] = [round(float(x), 4) for x in q.mean(0)]  # the posture, to compare runs
             out["policy_joint_std"] = [round(float(x), 4) for x in q.std(0)]  # how much each joint swings
         if self.robot.loop is not None:
             out["loop"] = self.robot.loop.summary()
+        if getattr(self.robot, "stream", None) is not None:
+            out["lowcmd"] = self.robot.stream.summary()
         return out
 
 

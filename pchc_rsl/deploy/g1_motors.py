@@ -33,6 +33,18 @@ MOTOR_DEFAULT_POS = np.array([DEFAULT_POSE.get(j, 0.0) for j in MOTOR_JOINTS])
 MOTOR_HOLD_KP = np.array([holding_gains(j)[0] for j in MOTOR_JOINTS])
 MOTOR_HOLD_KD = np.array([holding_gains(j)[1] for j in MOTOR_JOINTS])
 
+_STAND_LEG_KP, _STAND_LEG_KD = [200, 200, 200, 300, 200, 200], [4, 4, 4, 6, 4, 4]
+_STAND_ARM_KP, _STAND_ARM_KD = [100, 100, 50, 50, 20, 20, 20], [2, 2, 2, 2, 1, 1, 1]
+MOTOR_STAND_KP = np.array(_STAND_LEG_KP * 2 + [300.0] * 3 + _STAND_ARM_KP * 2, dtype=float)
+MOTOR_STAND_KD = np.array(_STAND_LEG_KD * 2 + [3.0] * 3 + _STAND_ARM_KD * 2, dtype=float)
+"""Gains for the ramp to the default pose and for holding it (HOLD). Waist and arms: unitree_rl_gym's G1 deploy
+(deploy/deploy_real/configs/g1.yaml, ``arm_waist_kps``/``arm_waist_kds``), which its deploy_real.py uses for the same
+two phases. Legs: that file's ``kps``/``kds`` (hip 100, knee 150, ankle 40; kd 2, 4, 2) doubled, ankles to 200. The
+reason is the inverted pendulum: a robot held only by PD stands if its ankles are stiffer than gravity's tipping
+stiffness m g h (35 kg x 9.81 x 0.6 m = 206 Nm/rad, about 100 per ankle). In pchc-deploy's simulator the G1 tipped
+over within 1.5 s of the gantry's release with unitree_rl_gym's leg gains (in its own pose and in the policy's), with
+the policy's armature-rule gains, and with the ankles alone at 200; with these it stands (docs/deploy.md)."""
+
 
 class JointMap:
     """Index arrays between the policy's joint order and the 29-motor order, built from names."""

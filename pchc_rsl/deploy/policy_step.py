@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from pchc_rsl.deploy.g1_motors import JointMap
+from pchc_rsl.deploy.live_controls import command_ranges_of
 from pchc_rsl.deploy.robot_io import RobotState
 from pchc_rsl.export import OnnxPolicy
 
@@ -42,7 +43,8 @@ class PolicyStep:
             raise ValueError(f"{path}: observation quantities {unknown} are unknown to this pchc-deploy; update "
                              "pchc-rsl or re-export the policy with this version.")
         self.frame_layout = [(name, int(size)) for name, size in layout["frame"]]
-        self.uses_command = any(name == "velocity_command" for name, _ in self.frame_layout)
+        self.command_ranges, self.command_note = command_ranges_of(meta)
+        self.uses_command = self.command_ranges is not None
         self.history = np.zeros((int(layout["frames"]), int(layout["frame_dim"])), np.float32)
         if self.history.size != self.policy.obs_dim:
             raise ValueError(f"{path}: the metadata's observation ({self.history.shape}) does not match the "

@@ -1,7 +1,11 @@
 """A simulated G1 that is commanded like the real one: the full 29-DoF menagerie model, every motor driven by its
-own PD law recomputed from the latest rt/lowcmd at every physics step (never a torque held between commands, the
-known fault of Python bridges), clipped to the motor's limit, with optional command latency and jitter and an
-optional hold-up band for the start (the robot hangs from a gantry while its motors are off and ramping)."""
+own PD law from the latest rt/lowcmd, clipped to the motor's limit, with optional command latency and jitter and an
+optional hold-up band for the start (the robot hangs from a gantry while its motors are off and ramping).
+
+Two PD semantics: recomputed at every physics step (as the G1's motor drivers do, at their own rate), or
+``pd_on_arrival``: computed once when a command takes effect and held until the next, as unitree_mujoco's
+simulate_python bridge does (its LowCmd handler writes ``tau + kp (q_des - q) + kd (dq_des - dq)`` into ``ctrl``).
+With latency, a command takes effect when its delay has passed, and the torque is computed from the state then."""
 
 from __future__ import annotations
 
@@ -27,10 +31,11 @@ class G1Simulator:
     """``apply(cmd, at)`` queues a command, ``step()`` advances one physics step, ``state()`` reads the sensors."""
 
     def __init__(self, timestep: float = 0.002, latency_s: float = 0.0, jitter_s: float = 0.0,
-                 hold_up_s: float = 0.0, seed: int = 0, visual: bool = False) -> None:
+                 hold_up_s: float = 0.0, seed: int = 0, visual: bool = False, pd_on_arrival: bool = False) -> None:
         self.model = build_g1_model(MOTOR_JOINTS, timestep=timestep, torque_control=True, visual=visual)
         self.data = mujoco.MjData(self.model)
         self.latency_s, self.jitter_s, self.hold_up_s = latency_s, jitter_s, hold_up_s
+        self.pd_on_arrival = pd_on_arrival
         self.rng = np.random.default_rng(seed)
         self.pelvis = self.model.body("pelvis").id
         self.data.qpos[2] = STANDING_HEIGHT
@@ -43,6 +48,7 @@ class G1Simulator:
         self.damped_at: float | None = None  # sim time the first damping command took effect
         self.distance_at_damping: float | None = None
         self.steps = 0
+        self.lowest = np.inf
 
     @property
     def fell(self) -> bool:
@@ -66,20 +72,30 @@ class G1Simulator:
         self.pending.append((release, command))
 
     def step(self) -> None:
+        d = self.data
+        arrived = False
         while self.pending and self.pending[0][0] <= self.time + 1e-9:
-            self.command = self.pending.popleft()[1]
+            self.command, arrived = self.pending.popleft()[1], True
             if self.damped_at is None and self.command.is_damping():
                 self.damped_at, self.distance_at_damping = self.time, self.distance_travelled()
-        d = self.data
-        d.ctrl[:] = self.command.torque(d.qpos[7:], d.qvel[6:], MOTOR_EFFORT_LIMIT)
+        if arrived or not self.pd_on_arrival:  # else ctrl keeps the torque computed when the last command arrived
+            d.ctrl[:] = self.command.torque(d.qpos[7:], d.qvel[6:], MOTOR_EFFORT_LIMIT)
         d.xfrc_applied[self.pelvis] = self._band() if self.time < self.hold_up_s else 0.0
         mujoco.mj_step(self.model, d)
         if d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > 0:
             raise SimulationDiverged(f"the G1 simulation diverged at t = {self.time:.3f} s (MuJoCo reset it); "
                                      "a smaller --timestep or softer gains fix this")
         self.steps += 1
-        if self.time >= self.hold_up_s and d.qpos[2] < FALL_HEIGHT and self.fell_at is None:
-            self.fell_at = self.time
+        if self.time >= self.hold_up_s:
+            if self.damped_at is None:
+                self.lowest = min(self.lowest, float(d.qpos[2]))
+            if d.qpos[2] < FALL_HEIGHT and self.fell_at is None:
+                self.fell_at = self.time
+
+    @property
+    def min_height_after_release(self) -> float | None:
+        """The pelvis's lowest height (m) since the hold-up band let go (before any damping), None before."""
+        return round(self.lowest, 4) if self.lowest < np.inf else None
 
     def _band(self) -> np.ndarray:
         """A stiff spring-damper holding the pelvis at its start pose (force and torque, world frame)."""

@@ -1,18 +1,22 @@
-"""pchc-deploy's browser console: the web viewer's lambda and command controls plus the safety buttons, for moving
-lambda live on the robot (or the sim bridge) from a laptop. It only queues input; the deploy loop applies it, as it
-applies keys and the remote's buttons."""
+"""pchc-deploy's browser console: the web viewer's lambda controls, one slider per command component the policy
+was trained with (forward, lateral, yaw rate, each over its trained range) and the safety buttons, for steering the
+robot (or the sim bridge) from a laptop. It only queues input; the deploy loop applies it, as it applies keys and
+the remote."""
 
 from __future__ import annotations
 
 import queue
 
-from pchc_rsl.web_viewer import (DEFAULT_HOST, add_command_control, add_preference_controls, check_port,
-                                 preference_markdown, require_viser)
+import numpy as np
+
+from pchc_rsl.deploy.live_controls import COMMAND_COMPONENTS, COMMAND_WORDS
+from pchc_rsl.web_viewer import DEFAULT_HOST, add_preference_controls, check_port, preference_markdown, require_viser
 
 
 class DeployConsole:
-    def __init__(self, objective_names: list[str], preference, command: float | None, host: str = DEFAULT_HOST,
-                 port: int = 8080) -> None:
+    def __init__(self, objective_names: list[str], preference, command_ranges: dict | None, command=(0.0, 0.0, 0.0),
+                 host: str = DEFAULT_HOST, port: int = 8080) -> None:
+        """``command_ranges``: component -> (low, high) as the policy file states them; None: no command."""
         viser, _ = require_viser()
         check_port(host, port)
         self.names = objective_names
@@ -23,28 +27,42 @@ class DeployConsole:
         self.status = gui.add_markdown("waiting for the robot's state")
         self.buttons = {}
         with gui.add_folder("Robot"):
-            for label, key in (("Start: ramp to the default pose", "s"), ("Policy", "p"), ("Damping", "d")):
+            for label, key in (("Start: ramp to the default pose", "s"), ("Policy", "p"), ("Damping", " ")):
                 self.buttons[key] = gui.add_button(label)
                 self.buttons[key].on_click(lambda _, key=key: self.events.put(key))
         with gui.add_folder("Preference lambda"):
             self.preference_sliders, self.preference_text = add_preference_controls(
                 gui, objective_names, preference, lambda lam: self.events.put(("preference", lam)))
-        self.command_slider = None
-        if command is not None:
+        self.command_sliders: dict[str, object] = {}
+        trained = {k: r for k, r in (command_ranges or {}).items() if r[1] > r[0]}
+        if trained:
             with gui.add_folder("Command"):
-                self.command_slider = add_command_control(gui, command, lambda v: self.events.put(("command", v)))
+                for i, key in enumerate(COMMAND_COMPONENTS):
+                    if key in trained:
+                        low, high = trained[key]
+                        name, unit, *_ = COMMAND_WORDS[key]
+                        slider = gui.add_slider(f"{name} ({unit})", low, high, 0.05, float(command[i]))
+                        slider.on_update(lambda _: self.events.put(("command", self.command_value())))
+                        self.command_sliders[key] = slider
+
+    def command_value(self) -> list[float]:
+        """(forward, lateral, yaw rate) from the sliders; 0 for a component the policy has no slider for."""
+        return [float(self.command_sliders[k].value) if k in self.command_sliders else 0.0 for k in COMMAND_COMPONENTS]
 
     def pending(self) -> list:
-        """Keys ('s', 'p', 'd') and (name, value) settings queued since the last call."""
+        """Keys ('s', 'p', ' ') and (name, value) settings queued since the last call."""
         out = []
         while not self.events.empty():
             out.append(self.events.get_nowait())
         return out
 
-    def show(self, mode: str, reason: str, preference, command: float | None) -> None:
+    def show(self, mode: str, reason: str, preference, command: np.ndarray | None) -> None:
         self.status.content = f"mode: **{mode}**" + (f" ({reason})" if reason else "")
         text = preference_markdown(self.names, preference)
-        self.preference_text.content = text + (f", command **{command:+.2f} m/s**" if command is not None else "")
+        if command is not None:
+            text += ", command " + ", ".join(f"{COMMAND_WORDS[k][0]} **{command[i]:+.2f}**"
+                                             for i, k in enumerate(COMMAND_COMPONENTS) if k in self.command_sliders)
+        self.preference_text.content = text
 
     def close(self) -> None:
         self.server.stop()
