@@ -180,3 +180,42 @@ def test_sections_whose_inputs_are_not_given_are_kept_and_fewer_episodes_need_fo
         g1_report.main(["--walk", few, "--docs", str(docs)])
     assert open(path).read() == text
     assert "episodes per preference: 4" in open(g1_report.main(["--walk", few, "--docs", str(docs), "--force"])).read()
+
+
+def test_steerable_walker_targets_from_each_foot_the_heading_and_the_steering_conditions(tmp_path):
+    """Swing 0.30 / 0.24 s at (0, 1) is 1.25x apart (not within 1.2x); heading medians all <= 5 degrees but one p90
+    of 12; speed 0.38 at (1, 0) is below 0.4; the step grows 0.2 -> 0.32 m, 1.6x. Under the steering conditions a
+    yaw-rate error of 0.2 misses 0.15, lateral errors of 0.05 meet 0.1, and one standing fall in 32 (3.1%) misses
+    2%."""
+    rows = []
+    for i, step in enumerate([0.20, 0.23, 0.26, 0.29, 0.32]):
+        rows.append({"stride_length": 0.3 + 0.1 * i, "push_deviation": 0.2 + 0.1 * i, "fall_rate": 0.0,
+                     "air_time_left": 0.30, "air_time_right": 0.24 if i == 4 else 0.29,
+                     "forward_step_left": step, "forward_step_right": step * 1.05, "forward_step": step,
+                     "heading_drift_median": 4.0, "heading_drift_p90": 12.0 if i == 2 else 9.0,
+                     "forward_speed": 0.38 if i == 0 else 0.5})
+    walk = write_results(tmp_path / "walk", rows, switching={"falls": 0, "settle_time_s": 1.0})
+    robust = tmp_path / "robust"
+    robust.mkdir()
+    conditions = {"turn left 0.5 rad/s": {"yaw_rate_error": 0.1}, "turn right 0.5 rad/s": {"yaw_rate_error": 0.2},
+                  "side step left 0.3 m/s": {"lateral_speed_error": 0.05},
+                  "side step right 0.3 m/s": {"lateral_speed_error": 0.05},
+                  "command 0 m/s": {"fall_rate": 0.0}}
+    report_rows = [{"condition": name, "overrides": [], "preference": list(lam), "episodes": 32,
+                    "metrics": {**metrics, "fall_rate": 3.125 if (name == "command 0 m/s" and lam == (0.0, 1.0))
+                                else 0.0, "forward_speed": 0.5}}
+                   for name, metrics in conditions.items() for lam in PREFERENCES]
+    (robust / "robustness.json").write_text(json.dumps(
+        {"task": "g1-walk-fast", "checkpoint": "/gone.pt", "conditions": list(conditions), "rows": report_rows}))
+    path = g1_report.main(["--walk", walk, "--walk-robustness", str(robust), "--docs", str(tmp_path / "docs")])
+    status = statuses(path)
+    assert not status["left/right swing time and forward step within 1.2x at every preference"]
+    assert not status["heading drift over an episode: median <= 5, 90th percentile <= 10 degrees"]
+    assert not status["forward speed 0.4-0.6 m/s at every preference (told 0.5)"]
+    assert status["forward step from (1, 0) to (0, 1) grows by >= 1.5x"]
+    turn = [k for k in status if k.startswith("yaw rate error <= 0.15 rad/s")]
+    side = [k for k in status if k.startswith("lateral speed error <= 0.1 m/s")]
+    assert len(turn) == len(side) == 1 and not status[turn[0]] and status[side[0]]
+    assert not status["told to stand: falls <= 2% at every preference"]
+    text = open(path).read()
+    assert "swing 1.03, 1.03, 1.03, 1.03, 1.25" in text and "(1.60x)" in text

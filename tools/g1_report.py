@@ -157,6 +157,79 @@ GAIT_COLUMNS = (("forward_step", "Forward step (m)"), ("side_step", "Side step (
                 ("cadence", "Cadence (1/s per foot)"), ("air_time", "Air time, median (s)"),
                 ("backward_touchdowns", "Backward touchdowns (%)"), ("forward_speed", "Forward speed (m/s)"),
                 ("strong/fall_rate", "Falls, strong pushes (%)"))
+FOOT_COLUMNS = (("air_time_left", "Swing left (s)"), ("air_time_right", "Swing right (s)"),
+                ("forward_step_left", "Step left (m)"), ("forward_step_right", "Step right (m)"),
+                ("heading_drift_median", "Heading drift, median (deg)"),
+                ("heading_drift_p90", "Heading drift, p90 (deg)"), ("lateral_drift", "Lateral drift (m)"))
+SYMMETRY_MAX = 1.2
+HEADING_MEDIAN_MAX, HEADING_P90_MAX = 5.0, 10.0
+SPEED_RANGE = (0.4, 0.6)
+STEP_GROWTH_MIN = 1.5
+YAW_RATE_ERROR_MAX, LATERAL_ERROR_MAX, STANDING_FALLS_MAX = 0.15, 0.1, 2.0
+
+
+def left_right_ratio(row: dict, left: str, right: str) -> float:
+    """The larger of a left and a right figure over the smaller (1: symmetric)."""
+    pair = sorted([value(row, left), value(row, right)])
+    return pair[1] / pair[0] if pair[0] > 0 else math.nan
+
+
+def gait_targets(rows: list[dict]) -> list[tuple[str, bool, str]]:
+    """The steerable walker's gait targets, from rows ordered (1, 0) -> (0, 1); only those the rows measured."""
+    targets = []
+    if all("air_time_left" in row["metrics"] for row in rows):
+        swing = [left_right_ratio(r, "air_time_left", "air_time_right") for r in rows]
+        step = [left_right_ratio(r, "forward_step_left", "forward_step_right") for r in rows]
+        worst = max(swing + step)
+        targets.append((f"left/right swing time and forward step within {SYMMETRY_MAX:g}x at every preference",
+                        worst <= SYMMETRY_MAX, "swing " + ", ".join(f"{x:.2f}" for x in swing) + "; step "
+                        + ", ".join(f"{x:.2f}" for x in step)))
+    if all("heading_drift_median" in row["metrics"] for row in rows):
+        median = [value(r, "heading_drift_median") for r in rows]
+        p90 = [value(r, "heading_drift_p90") for r in rows]
+        targets.append((f"heading drift over an episode: median <= {HEADING_MEDIAN_MAX:g}, 90th percentile <= "
+                        f"{HEADING_P90_MAX:g} degrees", max(median) <= HEADING_MEDIAN_MAX and max(p90) <= HEADING_P90_MAX,
+                        "median " + ", ".join(f"{x:.1f}" for x in median) + "; p90 "
+                        + ", ".join(f"{x:.1f}" for x in p90) + " degrees"))
+    if not all("forward_speed" in row["metrics"] and "forward_step" in row["metrics"] for row in rows):
+        return targets
+    speed = [value(r, "forward_speed") for r in rows]
+    targets.append((f"forward speed {SPEED_RANGE[0]:g}-{SPEED_RANGE[1]:g} m/s at every preference (told 0.5)",
+                    all(SPEED_RANGE[0] <= v <= SPEED_RANGE[1] for v in speed),
+                    ", ".join(f"{v:.2f}" for v in speed) + " m/s"))
+    steps = [value(r, "forward_step") for r in rows]
+    growth = steps[-1] / steps[0] if steps[0] > 0 else math.nan
+    targets.append((f"forward step from (1, 0) to (0, 1) grows by >= {STEP_GROWTH_MIN:g}x", growth >= STEP_GROWTH_MIN,
+                    f"{steps[0]:.2f} -> {steps[-1]:.2f} m ({growth:.2f}x)"))
+    return targets
+
+
+def steering_targets(report: dict) -> list[tuple[str, bool, str]]:
+    """Yaw-rate and lateral-speed errors under the steering conditions and falls told to stand, from a pchc-eval
+    --robustness report of a walker (conditions it did not run are left out)."""
+    from pchc_rsl.evaluation.robustness import STEERING
+
+    by_condition: dict[str, list[dict]] = {}
+    for row in report["rows"]:
+        by_condition.setdefault(row["condition"], []).append(row["metrics"])
+    targets = []
+    for key, limit, unit, wanted in (("yaw_rate_error", YAW_RATE_ERROR_MAX, "rad/s", "turn"),
+                                     ("lateral_speed_error", LATERAL_ERROR_MAX, "m/s", "side step")):
+        names = [name for name, *_ in STEERING if name.startswith(wanted) and name in by_condition]
+        if not names:
+            continue
+        errors = {name: [m.get(key) for m in by_condition[name]] for name in names}
+        worst = max((e for values in errors.values() for e in values if e is not None), default=math.nan)
+        targets.append((f"{key.replace('_', ' ')} <= {limit:g} {unit} at every preference ({', '.join(names)})",
+                        worst <= limit, "; ".join(f"{name}: " + ", ".join("n/a" if e is None else f"{e:.2f}"
+                                                                              for e in values)
+                                                  for name, values in errors.items())))
+    if "command 0 m/s" in by_condition:
+        falls = [m.get("fall_rate") for m in by_condition["command 0 m/s"]]
+        targets.append((f"told to stand: falls <= {STANDING_FALLS_MAX:g}% at every preference",
+                        all(f is not None and f <= STANDING_FALLS_MAX for f in falls),
+                        ", ".join("n/a" if f is None else f"{f:.1f}" for f in falls) + "%"))
+    return targets
 
 
 def walk_section(results: dict) -> tuple[list[str], list[tuple[str, bool, str]]]:
@@ -181,6 +254,14 @@ def walk_section(results: dict) -> tuple[list[str], list[tuple[str, bool, str]]]
         for row in rows:
             lines.append(f"| {preference_label(row['preference'])} | "
                          + " | ".join(cell(row, key) for key, _ in gait) + " |")
+    feet = [(key, title) for key, title in FOOT_COLUMNS if any(key in row["metrics"] for row in rows)]
+    if feet:
+        lines += ["", "Each foot, and the heading over an episode (swing and step: touchdowns after the first 0.5 s):",
+                  "", "| lambda (disturbance, stride) | " + " | ".join(title for _, title in feet) + " |",
+                  "|---|" + "---|" * len(feet)]
+        for row in rows:
+            lines.append(f"| {preference_label(row['preference'])} | "
+                         + " | ".join(cell(row, key, 1 if key.startswith("heading") else 2) for key, _ in feet) + " |")
     falls = [value(r, "fall_rate") for r in rows]
     episodes = min(r["episodes"] for r in rows)
     strides = [value(r, "stride_length") for r in rows]
@@ -194,6 +275,7 @@ def walk_section(results: dict) -> tuple[list[str], list[tuple[str, bool, str]]]
         ("deviation grows from (1, 0) to (0, 1)", increasing(deviations),
          ", ".join(f"{d:.3f}" for d in deviations) + " m" + ends_note(deviations)),
     ]
+    targets += gait_targets(rows)
     switching = results.get("switching")
     if switching is not None:
         settle = switching["settle_time_s"]
@@ -364,6 +446,9 @@ def robustness_lines(folder: str, docs: str, stem: str) -> list[str]:
     plot_robustness(report, os.path.join(docs, name))
     episodes = sorted({row["episodes"] for row in report["rows"]})
     tables = robustness_markdown(report).split("\n", 2)[2].replace("### ", "### Under the shifts: ")
+    steering = steering_targets(report) if report["task"].startswith("g1-walk") else []
+    if steering:
+        tables += "\n\n### Steering and standing targets\n\n" + "\n".join(targets_table(steering))
     return ["Each condition is a list of `KEY=VALUE` overrides on the mild push preset (any one is also a plain "
             "`pchc-eval CKPT KEY=VALUE ...`; `pchc-eval CKPT --robustness` prints them); "
             f"{' to '.join(str(e) for e in episodes[::max(1, len(episodes) - 1)])} episodes per cell. Rates with "
