@@ -226,9 +226,11 @@ def steering_targets(report: dict) -> list[tuple[str, bool, str]]:
                                                   for name, values in errors.items())))
     if "command 0 m/s" in by_condition:
         falls = [m.get("fall_rate") for m in by_condition["command 0 m/s"]]
+        episodes = min(row["episodes"] for row in report["rows"] if row["condition"] == "command 0 m/s")
         targets.append((f"told to stand: falls <= {STANDING_FALLS_MAX:g}% at every preference",
                         all(f is not None and f <= STANDING_FALLS_MAX for f in falls),
-                        ", ".join("n/a" if f is None else f"{f:.1f}" for f in falls) + "%"))
+                        ", ".join("n/a" if f is None else f"{f:.1f}" for f in falls)
+                        + f"% ({episodes} episodes per preference)"))
     return targets
 
 
