@@ -60,6 +60,34 @@ def steering_onnx(tmp_path_factory) -> str:
     return str(path)
 
 
+def walker_with_ranges(folder, ranges: dict | None) -> str:
+    """The shipped walker's network with other command ranges in its metadata (None: no ranges at all, as in files
+    exported before the key existed)."""
+    import onnx
+
+    from pchc_rsl.export import METADATA_KEY
+
+    model = onnx.load(WALK_ONNX)
+    entry = next(p for p in model.metadata_props if p.key == METADATA_KEY)
+    meta = json.loads(entry.value)
+    meta.pop("command_ranges", None)
+    if ranges is not None:
+        meta["command_ranges"] = ranges
+    entry.value = json.dumps(meta)
+    path = folder / "walker.onnx"
+    onnx.save(model, str(path))
+    return str(path)
+
+
+FORWARD_ONLY = {"lin_vel_x": [0.0, 1.0], "lin_vel_y": [0.0, 0.0], "ang_vel_z": [0.0, 0.0]}
+
+
+@pytest.fixture(scope="module")
+def forward_only_onnx(tmp_path_factory) -> str:
+    """A walker trained on forward commands only (lateral and yaw ranges 0..0)."""
+    return walker_with_ranges(tmp_path_factory.mktemp("forward"), FORWARD_ONLY)
+
+
 def standing_state(q=None, received_at: float = 0.0) -> RobotState:
     return RobotState(q=MOTOR_DEFAULT_POS.copy() if q is None else q, dq=np.zeros(NUM_MOTORS), tau=np.zeros(NUM_MOTORS),
                       quat=np.array([1.0, 0, 0, 0]), gyro=np.zeros(3), received_at=received_at)
@@ -459,15 +487,17 @@ def test_the_remote_sticks_steer_as_deploy_real_maps_them(steering_onnx):
         np.testing.assert_allclose(velocity_command_in_observation(run), expected, atol=1e-6)
 
 
-def test_steering_a_policy_without_that_command_is_refused_once():
-    """The shipped walker takes forward speed only and its file has no ranges: one note on the fallback, then one
-    line per refused component however often it is asked for, and its command stays at 0 there."""
+def test_steering_a_policy_without_that_command_is_refused_once(forward_only_onnx, tmp_path):
+    """A walker trained on forward speed only: one line per refused component however often it is asked for, and
+    its command stays at 0 there. A file without ranges (exported before they were recorded) gets a note on the
+    fallback (forward speed only)."""
     from pchc_rsl.deploy.policy_step import PolicyStep
 
-    assert "no command ranges" in PolicyStep(WALK_ONNX).command_note
+    assert "no command ranges" in PolicyStep(walker_with_ranges(tmp_path, None)).command_note
+    assert not PolicyStep(WALK_ONNX).command_note  # the shipped walker records its ranges
     lines = []
     robot = FakeRobot()
-    run = policy_running(robot, WALK_ONNX, log=lines.append)
+    run = policy_running(robot, forward_only_onnx, log=lines.append)
     run.inputs = [Keys("aaaaddqqe")]
     robot.remote = Remote(lx=1.0, rx=-1.0)
     for _ in range(12):
@@ -675,7 +705,7 @@ def test_the_shipped_walker_walks_10_s_with_pd_on_arrival(tmp_path, preference, 
 
 
 # ---------------------------------------------------------------------------------------------- bad input
-def test_bad_input_is_one_line(tmp_path):
+def test_bad_input_is_one_line(tmp_path, forward_only_onnx):
     toy = tmp_path / "toy.onnx"
     from pchc_rsl.cli import export_onnx, train
 
@@ -689,7 +719,8 @@ def test_bad_input_is_one_line(tmp_path):
         ("policies/g1_walk.pt", "--mujoco"): "pchc-deploy: policies/g1_walk.pt is a PyTorch checkpoint",
         (WALK_ONNX, "--mujoco", "--lowcmd-hz", "20"): "--lowcmd-hz 20 is outside [50, 1000]",
         (WALK_ONNX, "--mujoco", "--lowcmd-hz", "2000"): "--lowcmd-hz 2000 is outside [50, 1000]",
-        (WALK_ONNX, "--mujoco", "--command", "0.5,0.3,0"): "--command's lateral 0.3 m/s: this policy takes no lateral",
+        (forward_only_onnx, "--mujoco", "--command", "0.5,0.3,0"):
+            "--command's lateral 0.3 m/s: this policy takes no lateral",
         (WALK_ONNX, "--mujoco", "--command", "1.5"): "forward 1.5 m/s is outside the range the policy was trained in",
     }
     if not sdk_available():

@@ -108,10 +108,14 @@ def test_the_controls_change_the_env(walk_viewer):
     assert walk_viewer.apply_pending()
     assert env.preference[0].tolist() == pytest.approx([0.2, 0.8])
     assert float(env.commands[0, 0]) == pytest.approx(0.3)
-    assert list(walk_viewer.command_sliders) == ["lin_vel_x"]  # the shipped walker trained forward speed only
-    walk_viewer.queue("command", (1, 0.3))  # a lateral speed it was not trained with: not applied
+    assert list(walk_viewer.command_sliders) == ["lin_vel_x", "lin_vel_y", "ang_vel_z"]  # the shipped walker steers
+    walk_viewer.queue("command", (1, 0.3))
+    walk_viewer.queue("command", (2, -5.0))  # past the trained yaw range (-1..1): clipped to it
     walk_viewer.apply_pending()
-    assert float(env.commands[0, 1]) == 0.0
+    assert float(env.commands[0, 1]) == pytest.approx(0.3) and float(env.commands[0, 2]) == pytest.approx(-1.0)
+    walk_viewer.queue("command", (1, 0.0))  # back where the page starts (the fixture is shared)
+    walk_viewer.queue("command", (2, 0.0))
+    walk_viewer.apply_pending()
     assert walk_viewer.paused and walk_viewer.steps_requested == 1 and walk_viewer.speed == 0.5
     assert walk_viewer.obs["preference"][0].tolist() == pytest.approx([0.2, 0.8])  # the policy sees the new lambda
     walk_viewer.preference_sliders[0].value = 0.5  # back where the page starts (the fixture is shared)
