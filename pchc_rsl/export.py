@@ -117,20 +117,13 @@ class OnnxPolicy:
     def __init__(self, path: str, num_threads: int | None = None) -> None:
         import onnxruntime as ort
 
+        from pchc_rsl.onnx_session import open_onnx_session
+
         options = ort.SessionOptions()
         if num_threads is not None:
             options.intra_op_num_threads = num_threads
             options.inter_op_num_threads = 1
-        with open(path, "rb") as f:
-            magic = f.read(2)
-        if magic == b"PK":  # a zip archive: what torch.save writes
-            raise ValueError(f"{path} is a PyTorch checkpoint, not an ONNX file; export it first: pchc-export-onnx "
-                             f"{path} -o policy.onnx")
-        try:
-            self.session = ort.InferenceSession(path, options, providers=["CPUExecutionProvider"])
-        except Exception as error:  # noqa: BLE001 - onnxruntime's INVALID_PROTOBUF and friends
-            reason = (str(error).strip().splitlines() or [type(error).__name__])[0][:160]
-            raise ValueError(f"{path} is not a readable ONNX file (truncated or another format?): {reason}") from None
+        self.session = open_onnx_session(path, options)
         inputs = {i.name: i.shape for i in self.session.get_inputs()}
         if set(inputs) != {"obs", "preference"}:
             raise ValueError(f"{path} has inputs {list(inputs)}; a PCHC policy has 'obs' and 'preference'.")

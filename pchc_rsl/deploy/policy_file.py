@@ -10,18 +10,9 @@ METADATA_KEY = "pchc"  # pchc_rsl.export.METADATA_KEY, repeated here to keep tor
 
 def read_metadata(path: str) -> dict:
     """The deploy metadata of an ONNX policy file; ValueError in one line for anything else."""
-    with open(path, "rb") as f:
-        magic = f.read(2)
-    if magic == b"PK":  # a zip archive: what torch.save writes
-        raise ValueError(f"{path} is a PyTorch checkpoint, not an ONNX file; export it first: pchc-export-onnx "
-                         f"{path} -o policy.onnx")
-    import onnxruntime as ort
+    from pchc_rsl.onnx_session import open_onnx_session
 
-    try:
-        session = ort.InferenceSession(path, providers=["CPUExecutionProvider"])
-    except Exception as error:  # noqa: BLE001 - onnxruntime's INVALID_PROTOBUF and friends
-        reason = (str(error).strip().splitlines() or [type(error).__name__])[0][:160]
-        raise ValueError(f"{path} is not a readable ONNX file (truncated or another format?): {reason}") from None
+    session = open_onnx_session(path)
     text = session.get_modelmeta().custom_metadata_map.get(METADATA_KEY)
     if text is None:
         raise ValueError(f"{path} lacks the deploy metadata (joints, gains, observation layout) a deploy needs; "
