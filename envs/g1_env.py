@@ -36,6 +36,7 @@ GAIT_SETTLE_S = 0.5
 """The per-foot gait figures (swing time, forward step) leave out the touchdowns of an episode's first 0.5 s: the
 first steps out of the standing start are not the gait."""
 
+
 def wrap_angle(angle: torch.Tensor) -> torch.Tensor:
     """Into [-pi, pi)."""
     return torch.remainder(angle + math.pi, 2 * math.pi) - math.pi

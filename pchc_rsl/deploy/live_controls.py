@@ -10,6 +10,8 @@ import threading
 
 import numpy as np
 
+from pchc_rsl.steering import COMMAND_COMPONENTS
+
 PREFERENCE_STEP = 0.1
 SPEED_STEP = 0.1
 """m/s per key press (forward, lateral)."""
@@ -17,8 +19,6 @@ YAW_STEP = 0.1
 """rad/s per key press."""
 SUM_TOLERANCE = 1e-5  # pchc_rsl.preference.SUM_TOLERANCE (that module imports torch; this one must not)
 
-COMMAND_COMPONENTS = ("lin_vel_x", "lin_vel_y", "ang_vel_z")
-"""The walking command's components, as the training config's ``command_ranges`` and the ONNX metadata name them."""
 COMMAND_WORDS = {"lin_vel_x": ("forward", "m/s", "w / x", "the left stick forward/back"),
                  "lin_vel_y": ("lateral", "m/s", "a / d", "the left stick sideways"),
                  "ang_vel_z": ("yaw rate", "rad/s", "q / e", "the right stick sideways")}
