@@ -217,6 +217,26 @@ def with_fall(report: dict, fell_in_sim: bool, distance: float) -> dict:
     return report | {"fell": fell, "base_distance": round(float(distance), 4)}
 
 
+LOWSTATE_HZ = 500.0
+"""The rate at which a G1 publishes rt/lowstate."""
+
+
+def lowstate_rate_note(report: dict) -> str:
+    """LowState per second over the run, with a warning when far below the robot's 500: a simulator that runs
+    slower than real time (the policy, paced by the wall clock, then acts on a robot in slow motion) or a lossy
+    link."""
+    stream = report["lowcmd"]
+    seconds = stream["loop_ticks"] * stream["loop_period_ms"] / 1000.0
+    if seconds < 1.0:
+        return ""
+    rate = report["messages_received"] / seconds
+    note = f" ({rate:.0f} per second"
+    if rate < 0.9 * LOWSTATE_HZ and "bridge" not in report:  # pchc-sim-bridge reports its own real-time factor
+        note += (f", below the G1's {LOWSTATE_HZ:.0f}: a simulator that steps slower or runs behind real time, "
+                 "whose robot the policy then drives in slow motion, or a lossy link")
+    return note + ")"
+
+
 def summary_lines(report: dict, report_file: str | None) -> list[str]:
     """The end of a run for the operator's screen; the whole report is the --report JSON."""
     reason = f" ({report['reason']})" if report["reason"] else ""
@@ -227,7 +247,7 @@ def summary_lines(report: dict, report_file: str | None) -> list[str]:
                     "normal priority: root or CAP_SYS_NICE gives its thread real-time priority")
         lines.append(f"  LowCmd: {report['messages_sent']} written at {stream['rate_hz']:g} Hz ({stream['loop_overruns']}"
                      f" late ticks, worst {stream['loop_worst_late_ms']:.1f} ms; {priority}); LowState: "
-                     f"{report['messages_received']} received")
+                     f"{report['messages_received']} received{lowstate_rate_note(report)}")
     else:
         lines.append(f"  LowCmd: {report['messages_sent']} applied; LowState: {report['messages_received']} read")
     if "loop" in report:

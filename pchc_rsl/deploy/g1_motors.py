@@ -33,17 +33,22 @@ MOTOR_DEFAULT_POS = np.array([DEFAULT_POSE.get(j, 0.0) for j in MOTOR_JOINTS])
 MOTOR_HOLD_KP = np.array([holding_gains(j)[0] for j in MOTOR_JOINTS])
 MOTOR_HOLD_KD = np.array([holding_gains(j)[1] for j in MOTOR_JOINTS])
 
-_STAND_LEG_KP, _STAND_LEG_KD = [200, 200, 200, 300, 200, 200], [4, 4, 4, 6, 4, 4]
+_STAND_LEG_KP, _STAND_LEG_KD = [300, 300, 200, 400, 300, 200], [6, 6, 4, 8, 4, 4]
 _STAND_ARM_KP, _STAND_ARM_KD = [100, 100, 50, 50, 20, 20, 20], [2, 2, 2, 2, 1, 1, 1]
 MOTOR_STAND_KP = np.array(_STAND_LEG_KP * 2 + [300.0] * 3 + _STAND_ARM_KP * 2, dtype=float)
 MOTOR_STAND_KD = np.array(_STAND_LEG_KD * 2 + [3.0] * 3 + _STAND_ARM_KD * 2, dtype=float)
 """Gains for the ramp to the default pose and for holding it (HOLD). Waist and arms: unitree_rl_gym's G1 deploy
 (deploy/deploy_real/configs/g1.yaml, ``arm_waist_kps``/``arm_waist_kds``), which its deploy_real.py uses for the same
-two phases. Legs: that file's ``kps``/``kds`` (hip 100, knee 150, ankle 40; kd 2, 4, 2) doubled, ankles to 200. The
-reason is the inverted pendulum: a robot held only by PD stands if its ankles are stiffer than gravity's tipping
-stiffness m g h (35 kg x 9.81 x 0.6 m = 206 Nm/rad, about 100 per ankle). In pchc-deploy's simulator the G1 tipped
-over within 1.5 s of the gantry's release with unitree_rl_gym's leg gains (in its own pose and in the policy's), with
-the policy's armature-rule gains, and with the ankles alone at 200; with these it stands (docs/deploy.md)."""
+two phases. Legs (hip pitch, roll, yaw, knee, ankle pitch, roll): stiffer than that file's ``kps``/``kds`` (hip 100,
+knee 150, ankle 40; kd 2, 4, 2), because a robot held only by PD is an inverted pendulum on its ankles: it stands if
+they are stiffer than gravity's tipping stiffness m g h (35 kg x 9.81 x 0.6 m = 206 Nm/rad, about 100 per ankle),
+and the hips and knees in series with them must not give way. With unitree_rl_gym's leg gains the G1 tips over
+within 1.5 s of the gantry's release. These were chosen in unitree_mujoco's G1 model with its torque semantics (PD
+computed from sensor readings one 2 ms physics step old; tools/hold_gains.py): the robot stands, a 20 N push of 0.2 s
+at the torso from the front or the back does not tip it, and the free feet do not chatter while it hangs on the
+gantry (an ankle pitch kd of 8 makes them chatter there). In pchc-deploy's simulator it stands at
+500 Hz physics in both PD modes and at 200 Hz with PD at every step (hip and knee kd of 8 and 10 tip it there).
+docs/deploy.md has the figures."""
 
 
 class JointMap:

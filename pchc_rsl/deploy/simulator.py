@@ -4,8 +4,10 @@ optional hold-up band for the start (the robot hangs from a gantry while its mot
 
 Two PD semantics: recomputed at every physics step (as the G1's motor drivers do, at their own rate), or
 ``pd_on_arrival``: computed once when a command takes effect and held until the next, as unitree_mujoco's
-simulate_python bridge does (its LowCmd handler writes ``tau + kp (q_des - q) + kd (dq_des - dq)`` into ``ctrl``).
-With latency, a command takes effect when its delay has passed, and the torque is computed from the state then."""
+simulate_python bridge does (its LowCmd handler writes ``tau + kp (q_des - q) + kd (dq_des - dq)`` into ``ctrl``),
+from the joint sensors as that bridge reads them: MuJoCo evaluates sensors before it integrates, so after a physics
+step they hold the state at the step's start, one step old. With latency, a command takes effect when its delay has
+passed, and the torque is computed from the sensors then."""
 
 from __future__ import annotations
 
@@ -49,6 +51,8 @@ class G1Simulator:
         self.distance_at_damping: float | None = None
         self.steps = 0
         self.lowest = np.inf
+        self.sensed = (self.data.qpos[7:].copy(), self.data.qvel[6:].copy())
+        """Joint positions and velocities as MuJoCo's sensors report them: the state at the last step's start."""
 
     @property
     def fell(self) -> bool:
@@ -78,7 +82,11 @@ class G1Simulator:
             self.command, arrived = self.pending.popleft()[1], True
             if self.damped_at is None and self.command.is_damping():
                 self.damped_at, self.distance_at_damping = self.time, self.distance_travelled()
-        if arrived or not self.pd_on_arrival:  # else ctrl keeps the torque computed when the last command arrived
+        if self.pd_on_arrival:
+            if arrived:  # else ctrl keeps the torque computed when the last command arrived
+                d.ctrl[:] = self.command.torque(*self.sensed, MOTOR_EFFORT_LIMIT)
+            self.sensed = (d.qpos[7:].copy(), d.qvel[6:].copy())
+        else:
             d.ctrl[:] = self.command.torque(d.qpos[7:], d.qvel[6:], MOTOR_EFFORT_LIMIT)
         d.xfrc_applied[self.pelvis] = self._band() if self.time < self.hold_up_s else 0.0
         mujoco.mj_step(self.model, d)
