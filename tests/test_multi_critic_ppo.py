@@ -226,3 +226,31 @@ def test_each_experts_routing_mass_over_the_rollout_is_logged(alg):
     logged = torch.tensor([alg.return_stats[f"routing_mass/expert_{j}"] for j in range(5)])
     torch.testing.assert_close(logged, expected, atol=1e-5, rtol=1e-5)
     assert f"routing_mass/expert_{5}" not in alg.return_stats
+
+
+def test_mini_batches_are_rsl_rl_s_from_the_same_random_stream(alg):
+    """The storage's generator gathers rows with index_select; rsl-rl's with advanced indexing. From the same seed
+    they yield the same rows of every field, in the same order."""
+    from rsl_rl.storage import RolloutStorage
+
+    gen = torch.Generator().manual_seed(1)
+    st = alg.storage
+    fill_storage(alg, gen, torch.tensor([0.3, 0.7]))
+    for name in ("actions", "advantages", "returns", "actions_log_prob"):
+        getattr(st, name).copy_(torch.randn(getattr(st, name).shape, generator=gen))
+    st.distribution_params = tuple(torch.randn(st.actions.shape, generator=gen) for _ in range(2))
+    for group in st.observations.keys():
+        st.observations[group].copy_(torch.randn(st.observations[group].shape, generator=gen))
+    torch.manual_seed(7)
+    ours = list(st.mini_batch_generator(4, 2))
+    torch.manual_seed(7)
+    theirs = list(RolloutStorage.mini_batch_generator(st, 4, 2))
+    assert len(ours) == len(theirs) == 8
+    for a, b in zip(ours, theirs):
+        for field in ("actions", "values", "advantages", "returns", "old_actions_log_prob"):
+            assert torch.equal(getattr(a, field), getattr(b, field)), field
+        for p, q in zip(a.old_distribution_params, b.old_distribution_params):
+            assert torch.equal(p, q)
+        assert a.observations.batch_size == b.observations.batch_size
+        for group in b.observations.keys():
+            assert torch.equal(a.observations[group], b.observations[group]), group

@@ -38,3 +38,30 @@ class MultiCriticRolloutStorage(RolloutStorage):
         transition.rewards = reward_groups[:, 0]  # the base class copies a single column; overwrite below
         super().add_transition(transition)
         self.rewards[step].copy_(reward_groups)
+
+    def mini_batch_generator(self, num_mini_batches: int, num_epochs: int = 8):
+        """rsl-rl's generator (the same permutation, the same batches in the same order) gathering the rows with
+        ``index_select``, which is faster than advanced indexing on a CPU (tools/bench_update.py times the two)."""
+        if self.training_type != "rl":
+            raise ValueError("This function is only available for reinforcement learning training.")
+        batch_size = self.num_envs * self.num_transitions_per_env
+        mini_batch_size = batch_size // num_mini_batches
+        indices = torch.randperm(num_mini_batches * mini_batch_size, requires_grad=False, device=self.device)
+        observations = self.observations.flatten(0, 1)
+        flat = [t.flatten(0, 1) for t in (self.actions, self.values, self.advantages, self.returns,
+                                         self.actions_log_prob)]
+        old_distribution_params = tuple(p.flatten(0, 1) for p in self.distribution_params)  # type: ignore
+        for _ in range(num_epochs):
+            for i in range(num_mini_batches):
+                rows = indices[i * mini_batch_size : (i + 1) * mini_batch_size]
+                actions, values, advantages, returns, log_prob = (t.index_select(0, rows) for t in flat)
+                yield RolloutStorage.Batch(
+                    observations=TensorDict({k: v.index_select(0, rows) for k, v in observations.items()},
+                                            batch_size=[rows.shape[0]], device=observations.device),
+                    actions=actions,
+                    values=values,
+                    advantages=advantages,
+                    returns=returns,
+                    old_actions_log_prob=log_prob,
+                    old_distribution_params=tuple(p.index_select(0, rows) for p in old_distribution_params),
+                )
