@@ -536,6 +536,7 @@ def test_the_fixed_rate_loop_keeps_its_grid():
     # tick k is due at k * 20 ms from the first call (at 5 ms): a sleep-after-the-work loop would drift by the work
     assert sleeps[:3] == pytest.approx([0.02, 0.005, 0.015])
     assert loop.overruns == 1 and loop.worst_late_s == pytest.approx(0.01)
+    assert loop.summary()["worst_late_at_s"] == pytest.approx(0.09)  # the fourth tick's end, 90 ms after the first
 
 
 # ---------------------------------------------------------------------------------------------- the policy

@@ -252,7 +252,9 @@ def summary_lines(report: dict, report_file: str | None) -> list[str]:
         lines.append(f"  LowCmd: {report['messages_sent']} applied; LowState: {report['messages_received']} read")
     if "loop" in report:
         loop = report["loop"]
-        lines.append(f"  control loop: {loop['ticks']} ticks, {loop['overruns']} late (worst {loop['worst_late_ms']:.1f} ms)")
+        at = f" at {loop['worst_late_at_s']:.1f} s" if loop.get("worst_late_at_s") is not None else ""
+        lines.append(f"  control loop: {loop['ticks']} ticks, {loop['overruns']} late (worst {loop['worst_late_ms']:.1f} ms"
+                     f"{at})")
     if "fell" in report:
         lines.append(f"  simulated robot: {'FELL' if report['fell'] else 'did not fall'}, walked "
                      f"{report['base_distance']:.2f} m before damping")
