@@ -769,7 +769,7 @@ def test_a_sim_run_that_fell_behind_real_time_is_no_pass(monkeypatch, capsys, tm
         deploy.main([WALK_ONNX, "--sim", "--seconds", "5", "--report", str(tmp_path / "r.json")])
     message = str(exit_.value.code)
     assert "fell behind real time: 5.2 s simulated in 9.0 s (real-time factor 0.58, bound 0.9)" in message
-    assert "82% of physics steps late" in message and "--timestep 0.005" in message and "--mujoco" in message
+    assert "82% of physics steps late" in message and "--timestep 0.004" in message and "--mujoco" in message
     out = capsys.readouterr().out
     assert "5.2 s simulated in 9.0 s" in out and "did not fall, walked 0.84 m" in out
     assert json.loads((tmp_path / "r.json").read_text())["bridge"]["kept_real_time"] is False

@@ -33,7 +33,7 @@ MOTOR_DEFAULT_POS = np.array([DEFAULT_POSE.get(j, 0.0) for j in MOTOR_JOINTS])
 MOTOR_HOLD_KP = np.array([holding_gains(j)[0] for j in MOTOR_JOINTS])
 MOTOR_HOLD_KD = np.array([holding_gains(j)[1] for j in MOTOR_JOINTS])
 
-_STAND_LEG_KP, _STAND_LEG_KD = [300, 300, 200, 400, 300, 200], [6, 6, 4, 8, 4, 4]
+_STAND_LEG_KP, _STAND_LEG_KD = [300, 300, 200, 400, 300, 200], [10, 10, 4, 12, 4, 4]
 _STAND_ARM_KP, _STAND_ARM_KD = [100, 100, 50, 50, 20, 20, 20], [2, 2, 2, 2, 1, 1, 1]
 MOTOR_STAND_KP = np.array(_STAND_LEG_KP * 2 + [300.0] * 3 + _STAND_ARM_KP * 2, dtype=float)
 MOTOR_STAND_KD = np.array(_STAND_LEG_KD * 2 + [3.0] * 3 + _STAND_ARM_KD * 2, dtype=float)
@@ -44,10 +44,11 @@ knee 150, ankle 40; kd 2, 4, 2), because a robot held only by PD is an inverted 
 they are stiffer than gravity's tipping stiffness m g h (35 kg x 9.81 x 0.6 m = 206 Nm/rad, about 100 per ankle),
 and the hips and knees in series with them must not give way. With unitree_rl_gym's leg gains the G1 tips over
 within 1.5 s of the gantry's release. These were chosen in unitree_mujoco's G1 model with its torque semantics (PD
-computed from sensor readings one 2 ms physics step old; tools/hold_gains.py): the robot stands, a 20 N push of 0.2 s
+computed from sensor readings one 2 ms physics step old; tools/hold_gains.py): the robot stands, a 25 N push of 0.2 s
 at the torso from the front or the back does not tip it, and the free feet do not chatter while it hangs on the
-gantry (an ankle pitch kd of 8 makes them chatter there). In pchc-deploy's simulator it stands at
-500 Hz physics in both PD modes and at 200 Hz with PD at every step (hip and knee kd of 8 and 10 tip it there).
+gantry (an ankle pitch kd of 8 makes them chatter there). Less hip and knee damping (kd 6 and 8) tips the robot at
+25 N, and in unitree_mujoco itself once it had drifted forward on the band. In pchc-deploy's simulator these stand
+at 500 Hz physics in both PD modes, and with PD at every step down to 250 Hz (at 200 Hz the hip and knee kd tip it).
 docs/deploy.md has the figures."""
 
 

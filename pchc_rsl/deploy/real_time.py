@@ -10,7 +10,9 @@ REAL_TIME_BOUND = 0.9
 
 def behind_real_time(report: dict) -> str:
     """One line for a bridge report that fell behind: what happened, why it matters, what to do."""
-    slower = " or simulate at 200 Hz (--timestep 0.005)," if report["timestep"] < 0.005 else ""
+    # with the torque held from arrival, a slower physics computes it from older sensors: HOLD no longer stands
+    slower = (" or simulate at 250 Hz (--timestep 0.004),"
+              if report["timestep"] < 0.004 and not report.get("pd_on_arrival") else "")
     return (f"the simulation fell behind real time: {report['sim_time']:.1f} s simulated in {report['wall_s']:.1f} s "
             f"(real-time factor {report['real_time_factor']:.2f}, bound {REAL_TIME_BOUND}), {report['late_share']:.0%} "
             f"of physics steps late, slowest step {report['slowest_step_ms']:.0f} ms. This machine is too busy for "

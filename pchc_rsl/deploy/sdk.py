@@ -153,6 +153,8 @@ class RawReader:
         mask = SampleState.Any | ViewState.Any | InstanceState.Any
 
         def on_data_available(reader) -> None:
+            if reader is None:  # a sample that arrived while the reader was being deleted, at the end of a run
+                return
             taken = ddspy_take(reader._ref, mask, depth)
             if isinstance(taken, int):
                 return
