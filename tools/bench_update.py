@@ -132,7 +132,7 @@ def main() -> None:
             elapsed = time.perf_counter() - start
             if repeat > 0:
                 times[name].append(elapsed)
-            weights[name] = [p.detach().clone() for p in alg.actor.parameters()]
+            weights[name] = [p.detach().clone() for m in (alg.actor, alg.critic) for p in m.parameters()]
     use("current")
     same = all(torch.equal(a, b) for a, b in zip(weights["reference"], weights["current"]))
     reference, current = (statistics.median(times[n]) for n in ("reference", "current"))
@@ -141,7 +141,7 @@ def main() -> None:
     print(f"  reference (rsl-rl's gathers) {reference:.3f} s, current {current:.3f} s: ratio {current / reference:.2f}")
     print(f"  all {len(times['reference'])} runs: reference {[round(t, 3) for t in times['reference']]}, "
           f"current {[round(t, 3) for t in times['current']]}")
-    print(f"  the same weights after the update: {same}")
+    print(f"  the same actor and critic weights after the update: {same}")
     batch = alg.storage.num_envs * alg.storage.num_transitions_per_env // alg.num_mini_batches
     batch *= 2 if alg.symmetry is not None and alg.symmetry.use_data_augmentation else 1
     floor = matmul_floor(alg, batch)
