@@ -377,6 +377,48 @@ def test_pd_on_arrival_holds_the_torque_of_arrival():
             np.testing.assert_allclose(sim.data.ctrl, now, atol=1e-9)
 
 
+def g1_scene(tmp_path, joints, motors: bool = True) -> str:
+    """menagerie's G1 saved as an MJCF with one actuator per joint in ``joints`` (torque motors, or position
+    servos), as a simulator's own G1 scene would be."""
+    import os
+
+    import mujoco
+
+    from pchc_rsl.robots.g1.model import load_g1_spec
+
+    spec = load_g1_spec()
+    spec.meshdir = os.path.join(spec.modelfiledir, spec.meshdir)
+    for actuator in list(spec.actuators):
+        spec.delete(actuator)
+    for joint in joints:
+        actuator = spec.add_actuator()
+        actuator.name, actuator.target, actuator.trntype = joint, joint, mujoco.mjtTrn.mjTRN_JOINT
+        if not motors:
+            actuator.gainprm[0], actuator.biastype, actuator.biasprm[1] = 40.0, mujoco.mjtBias.mjBIAS_AFFINE, -40.0
+    path = tmp_path / "g1_scene.xml"
+    path.write_text(spec.to_xml())
+    return str(path)
+
+
+@needs_g1
+def test_a_scene_in_the_sdk_motor_order_is_simulated_and_any_other_refused(tmp_path):
+    """--scene takes a G1 whose 29 torque motors follow unitree_sdk2's order (unitree_mujoco's scene_29dof.xml is
+    one); the simulator then drives that model. Swapped motors or position servos are refused in one line."""
+    from pchc_rsl.deploy.simulator import G1Simulator
+
+    sim = G1Simulator(scene=g1_scene(tmp_path, MOTOR_JOINTS), timestep=0.004)
+    assert sim.model.nu == NUM_MOTORS and sim.model.opt.timestep == 0.004
+    cmd = MotorCommand(q=MOTOR_DEFAULT_POS + 0.1, kp=np.full(NUM_MOTORS, 30.0), kd=np.zeros(NUM_MOTORS))
+    sim.apply(cmd)
+    sim.step()
+    np.testing.assert_allclose(sim.data.actuator_force, np.full(NUM_MOTORS, 3.0), atol=1e-9)  # 30 x 0.1 rad
+    swapped = [MOTOR_JOINTS[1], MOTOR_JOINTS[0], *MOTOR_JOINTS[2:]]
+    with pytest.raises(ValueError, match="not a 29-DoF G1 in unitree_sdk2's motor order"):
+        G1Simulator(scene=g1_scene(tmp_path, swapped))
+    with pytest.raises(ValueError, match="not torque motors"):
+        G1Simulator(scene=g1_scene(tmp_path, MOTOR_JOINTS, motors=False))
+
+
 def test_a_stale_lowstate_damps_within_100_ms():
     robot = FakeRobot(silent_after=5.0)  # the policy runs from 3.5 s
     run = fake_deployment(robot)
@@ -726,6 +768,8 @@ def test_bad_input_is_one_line(tmp_path, forward_only_onnx):
         (str(tmp_path / "missing.onnx"), "--mujoco"): "no policy file",
         ("policies/g1_walk.pt", "--mujoco"): "pchc-deploy: policies/g1_walk.pt is a PyTorch checkpoint",
         (WALK_ONNX, "--mujoco", "--lowcmd-hz", "20"): "--lowcmd-hz 20 is outside [50, 1000]",
+        (WALK_ONNX, "--network", "lo", "--scene", "g1.xml"): "--scene is the simulated robot's model",
+        (WALK_ONNX, "--mujoco", "--scene", str(tmp_path / "missing.xml")): "no scene file at",
         (WALK_ONNX, "--mujoco", "--lowcmd-hz", "2000"): "--lowcmd-hz 2000 is outside [50, 1000]",
         (forward_only_onnx, "--mujoco", "--command", "0.5,0.3,0"):
             "--command's lateral 0.3 m/s: this policy takes no lateral",

@@ -82,6 +82,10 @@ def main(argv: list[str] | None = None) -> None:
     if args.domain is not None and not 0 <= args.domain <= 232:
         parser.error(f"--domain must be a DDS domain id in [0, 232], got {args.domain}")
     simulated = args.sim or args.mujoco
+    if args.scene and not simulated:
+        parser.error("--scene is the simulated robot's model: use it with --sim or --mujoco")
+    if args.scene and not os.path.isfile(args.scene):
+        parser.error(f"no scene file at {args.scene}")
     seconds = args.seconds if args.seconds is not None or not simulated else 10.0
     try:
         setup = checked_setup(args, simulated)
@@ -145,7 +149,7 @@ def deploy(args, seconds: float | None, setup: dict) -> dict:
         from pchc_rsl.deploy.simulator import G1Simulator
 
         sim = G1Simulator(timestep=args.timestep, latency_s=args.latency_ms / 1e3, jitter_s=args.jitter_ms / 1e3,
-                          hold_up_s=args.hold_up, pd_on_arrival=args.pd_on_arrival)
+                          hold_up_s=args.hold_up, pd_on_arrival=args.pd_on_arrival, scene=args.scene)
         run = Deployment(policy, InProcessRobot(sim, policy.control_period, args.lowcmd_hz), preference, command, auto)
         run.run(seconds)
         return with_fall(run.report(), sim.fell, sim.driven_distance()) | {
@@ -162,7 +166,8 @@ def deploy(args, seconds: float | None, setup: dict) -> dict:
              "--timestep", str(args.timestep), "--latency-ms", str(args.latency_ms), "--jitter-ms",
              str(args.jitter_ms), "--hold-up", str(args.hold_up), "--report", bridge_report,
              "--parent-pid", str(os.getpid())]
-            + (["--viewer"] if args.sim_viewer else []) + (["--pd-on-arrival"] if args.pd_on_arrival else []))
+            + (["--viewer"] if args.sim_viewer else []) + (["--pd-on-arrival"] if args.pd_on_arrival else [])
+            + (["--scene", args.scene] if args.scene else []))
     else:
         domain, interface = (0 if args.domain is None else args.domain), args.network
     keys = console = None

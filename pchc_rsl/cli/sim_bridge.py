@@ -34,6 +34,9 @@ def add_simulation_arguments(parser) -> None:
                         "unitree_mujoco's simulate_python does (default: recompute the PD law at every physics step, "
                         "as the G1's motor drivers do); with --latency-ms the torque is computed when the delayed "
                         "command takes effect. Their default physics rate is --timestep 0.005")
+    parser.add_argument("--scene", metavar="MJCF", help="simulate this G1 model instead of mujoco-menagerie's: 29 "
+                        "torque motors in unitree_sdk2's order, e.g. unitree_mujoco's "
+                        "unitree_robots/g1/scene_29dof.xml (with --pd-on-arrival: their model and torque semantics)")
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -63,7 +66,8 @@ def main(argv: list[str] | None = None) -> None:
         from pchc_rsl.deploy.simulator import G1Simulator, SimulationDiverged
 
         sim = G1Simulator(timestep=args.timestep, latency_s=args.latency_ms / 1e3, jitter_s=args.jitter_ms / 1e3,
-                          hold_up_s=args.hold_up, seed=args.seed, visual=args.viewer, pd_on_arrival=args.pd_on_arrival)
+                          hold_up_s=args.hold_up, seed=args.seed, visual=args.viewer, pd_on_arrival=args.pd_on_arrival,
+                          scene=args.scene)
         bridge = SimBridge(sim, lambda on_command: DdsBridgeEnd(args.domain, args.network, on_command),
                            viewer=args.viewer, parent_pid=args.parent_pid)
     except (ValueError, SdkMissing) as error:

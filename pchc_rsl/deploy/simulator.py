@@ -7,7 +7,11 @@ Two PD semantics: recomputed at every physics step (as the G1's motor drivers do
 simulate_python bridge does (its LowCmd handler writes ``tau + kp (q_des - q) + kd (dq_des - dq)`` into ``ctrl``),
 from the joint sensors as that bridge reads them: MuJoCo evaluates sensors before it integrates, so after a physics
 step they hold the state at the step's start, one step old. With latency, a command takes effect when its delay has
-passed, and the torque is computed from the sensors then."""
+passed, and the torque is computed from the sensors then.
+
+The model is the full 29-DoF menagerie G1, or with ``scene`` another G1 MJCF whose 29 motor actuators and joints
+follow unitree_sdk2's motor order, such as unitree_mujoco's ``unitree_robots/g1/scene_29dof.xml``: the same deploy
+against that simulator's model and torque semantics, in lockstep, without its process keeping real time."""
 
 from __future__ import annotations
 
@@ -25,6 +29,20 @@ FALL_HEIGHT = 0.45
 """Pelvis height (m) under which the robot counts as fallen (the walking task's termination height)."""
 
 
+def load_scene(path: str) -> mujoco.MjModel:
+    """A G1 MJCF in unitree_sdk2's motor order: motor i is a torque actuator on joint MOTOR_JOINTS[i], whose
+    position is qpos[7 + i] (after the floating base)."""
+    model = mujoco.MjModel.from_xml_path(path)
+    joints = [model.joint(int(model.actuator_trnid[i, 0])) for i in range(model.nu)]
+    names = [j.name for j in joints]
+    if names != MOTOR_JOINTS or [int(j.qposadr[0]) for j in joints] != list(range(7, 7 + NUM_MOTORS)):
+        raise ValueError(f"{path} is not a 29-DoF G1 in unitree_sdk2's motor order: its actuators drive {names[:3]}"
+                         f"... ({model.nu}); expected {MOTOR_JOINTS[:3]}... (29), each joint at qpos[7 + i]")
+    if not (np.all(model.actuator_biastype == 0) and np.allclose(model.actuator_gainprm[:, 0], 1.0)):
+        raise ValueError(f"{path}: its actuators are not torque motors (ctrl = joint torque)")
+    return model
+
+
 class SimulationDiverged(RuntimeError):
     """The physics blew up (MuJoCo resets the state, which would silently restart the clock)."""
 
@@ -33,8 +51,13 @@ class G1Simulator:
     """``apply(cmd, at)`` queues a command, ``step()`` advances one physics step, ``state()`` reads the sensors."""
 
     def __init__(self, timestep: float = 0.002, latency_s: float = 0.0, jitter_s: float = 0.0,
-                 hold_up_s: float = 0.0, seed: int = 0, visual: bool = False, pd_on_arrival: bool = False) -> None:
-        self.model = build_g1_model(MOTOR_JOINTS, timestep=timestep, torque_control=True, visual=visual)
+                 hold_up_s: float = 0.0, seed: int = 0, visual: bool = False, pd_on_arrival: bool = False,
+                 scene: str | None = None) -> None:
+        if scene is None:
+            self.model = build_g1_model(MOTOR_JOINTS, timestep=timestep, torque_control=True, visual=visual)
+        else:
+            self.model = load_scene(scene)
+            self.model.opt.timestep = timestep
         self.data = mujoco.MjData(self.model)
         self.latency_s, self.jitter_s, self.hold_up_s = latency_s, jitter_s, hold_up_s
         self.pd_on_arrival = pd_on_arrival
