@@ -33,6 +33,8 @@ def load_scene(path: str) -> mujoco.MjModel:
     """A G1 MJCF in unitree_sdk2's motor order: motor i is a torque actuator on joint MOTOR_JOINTS[i], whose
     position is qpos[7 + i] (after the floating base)."""
     model = mujoco.MjModel.from_xml_path(path)
+    if np.any(model.actuator_trntype != mujoco.mjtTrn.mjTRN_JOINT):
+        raise ValueError(f"{path}: every actuator must drive a joint (unitree_sdk2's motors)")
     joints = [model.joint(int(model.actuator_trnid[i, 0])) for i in range(model.nu)]
     names = [j.name for j in joints]
     if names != MOTOR_JOINTS or [int(j.qposadr[0]) for j in joints] != list(range(7, 7 + NUM_MOTORS)):
