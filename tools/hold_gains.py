@@ -21,18 +21,18 @@ import argparse
 import mujoco
 import numpy as np
 
-from pchc_rsl.deploy.g1_motors import MOTOR_DEFAULT_POS, MOTOR_JOINTS, MOTOR_STAND_KD, MOTOR_STAND_KP
+from pchc_rsl.deploy.g1_motors import (MOTOR_DEFAULT_POS, MOTOR_EFFORT_LIMIT, MOTOR_JOINTS, MOTOR_STAND_KD,
+                                       MOTOR_STAND_KP)
+from pchc_rsl.deploy.robot_io import MotorCommand
+from pchc_rsl.deploy.simulator import load_scene
 
 RELEASE_S, PUSH_S, END_S = 6.0, 8.0, 20.0
 
 
 def hold(scene: str, timestep: float, lowcmd_hz: float, kp: np.ndarray, kd: np.ndarray, push: float) -> dict:
-    model = mujoco.MjModel.from_xml_path(scene)
+    model = load_scene(scene)
     model.opt.timestep = timestep
     data = mujoco.MjData(model)
-    names = [model.actuator(i).trnid[0] for i in range(model.nu)]
-    if [model.joint(j).name for j in names] != MOTOR_JOINTS:
-        raise SystemExit(f"{scene}: its actuators are not the G1's 29 motors in unitree_sdk2's order")
     torso = model.body("torso_link").id
     mujoco.mj_forward(model, data)
     start = data.sensordata[:29].copy()
@@ -41,10 +41,10 @@ def hold(scene: str, timestep: float, lowcmd_hz: float, kp: np.ndarray, kd: np.n
     while t < END_S:
         ramp = min(max(t - 0.5, 0.0) / 2.0, 1.0)
         target = start + ramp * (MOTOR_DEFAULT_POS - start)
-        gains = (kp, kd) if t >= 0.5 else (np.zeros(29), np.zeros(29))
+        command = MotorCommand(q=target, kp=kp, kd=kd) if t >= 0.5 else MotorCommand()  # motors off, then PD
         while next_command <= t + 1e-12:  # the LowCmds that arrived before this physics step
-            q, dq = data.sensordata[:29], data.sensordata[29:58]
-            data.ctrl[:] = gains[0] * (target - q) - gains[1] * dq
+            # clipped to the G1's limits here and to the model's ctrlrange by MuJoCo, as unitree_mujoco's is
+            data.ctrl[:] = command.torque(data.sensordata[:29], data.sensordata[29:58], MOTOR_EFFORT_LIMIT)
             next_command += 1.0 / lowcmd_hz
         if 3.5 <= t < RELEASE_S:
             band_length = min(1.2, 0.1 * int((t - 3.5) / 0.2 + 1))
@@ -94,7 +94,10 @@ def main() -> None:
     print(f"physics {1 / args.timestep:.0f} Hz, LowCmd {args.lowcmd_hz:.0f} Hz; legs kp {kp[:6].tolist()} "
           f"kd {kd[:6].tolist()}")
     for push in args.pushes:
-        r = hold(args.scene, args.timestep, args.lowcmd_hz, kp, kd, push)
+        try:
+            r = hold(args.scene, args.timestep, args.lowcmd_hz, kp, kd, push)
+        except ValueError as error:  # not a G1 in unitree_sdk2's motor order
+            raise SystemExit(f"hold_gains: {error}") from None
         outcome = "stands" if r["fell_at"] is None else f"fell at {r['fell_at']:.2f} s"
         print(f"push {push:+6.1f} N: {outcome:>16}, lowest pelvis after the release {r['lowest']:.3f} m; while "
               f"hanging the fastest chatter is {r['chatter_joint']} ({r['chatter']:.2f} rad/s std)", flush=True)
