@@ -60,20 +60,25 @@ def test_progress_shows_the_time_left_and_writes_a_line_per_tenth_to_a_log():
     assert len(log.getvalue().splitlines()) == 10
 
 
-def test_an_interrupted_robustness_run_leaves_the_finished_conditions_marked_partial(walk_checkpoint, tmp_path,
-                                                                                       monkeypatch):
-    from pchc_rsl.cli import eval as eval_cli
-    from pchc_rsl.evaluation import checkpoint
-
-    evaluate, calls = checkpoint.evaluate_checkpoint, []
+def interrupt_the_second_call(monkeypatch, module, name: str) -> None:
+    """``module.name`` as it is, except that its second call raises KeyboardInterrupt (Ctrl-C in mid-run)."""
+    original, calls = getattr(module, name), []
 
     def interrupted_second(*args, **kwargs):
         calls.append(1)
         if len(calls) == 2:
             raise KeyboardInterrupt
-        return evaluate(*args, **kwargs)
+        return original(*args, **kwargs)
 
-    monkeypatch.setattr(checkpoint, "evaluate_checkpoint", interrupted_second)
+    monkeypatch.setattr(module, name, interrupted_second)
+
+
+def test_an_interrupted_robustness_run_leaves_the_finished_conditions_marked_partial(walk_checkpoint, tmp_path,
+                                                                                       monkeypatch):
+    from pchc_rsl.cli import eval as eval_cli
+    from pchc_rsl.evaluation import checkpoint
+
+    interrupt_the_second_call(monkeypatch, checkpoint, "evaluate_checkpoint")
     monkeypatch.setattr(eval_cli, "written_partial", [])
     out = tmp_path / "rob"
     with pytest.raises(SystemExit, match="interrupted; the conditions that finished are in"):
@@ -91,15 +96,7 @@ def test_an_interrupted_evaluation_leaves_its_first_push_preset_written_marked_p
     from pchc_rsl.cli import eval as eval_cli
     from pchc_rsl.evaluation import checkpoint
 
-    run, calls = checkpoint.run_preference_batch, []
-
-    def interrupted_second(*args, **kwargs):
-        calls.append(1)
-        if len(calls) == 2:
-            raise KeyboardInterrupt
-        return run(*args, **kwargs)
-
-    monkeypatch.setattr(checkpoint, "run_preference_batch", interrupted_second)
+    interrupt_the_second_call(monkeypatch, checkpoint, "run_preference_batch")
     monkeypatch.setattr(eval_cli, "written_partial", [])
     out = tmp_path / "eval"
     with pytest.raises(SystemExit, match="interrupted; the part that finished is in"):
