@@ -27,8 +27,10 @@ class PushConfig:
     only_when_standing: bool = False
     """Count down to the next push only while the robot stands (fall recovery's evaluation pushes the stood-up
     robot, as in the paper, not the one still on the floor)."""
-
-
+    reference_turns: bool = True
+    """The reference of r_disturb and the push deviation turns at the commanded yaw rate (it follows the commanded
+    twist); False: it moves straight at the commanded velocity the push found, the paper's x_last + v_ref t, under
+    which turning as told inside a window counts as deviation (docs/design.md, "A reference that turns")."""
 
 
 @dataclass

@@ -245,7 +245,7 @@ class G1Env(VecEnv):
         self.robot.read()
         self.feet.update(self.robot.foot_touch_substeps, self.robot.foot_pos, self.robot.heading)
         self.episode_length_buf += 1
-        self.pushes.track(self.robot)
+        self.pushes.track(self.robot, self.commands)
         self._after_physics()
         self.heading_error = wrap_angle(self.heading_error + self.yaw_change() - self.commands[:, 2] * self.dt)
 

@@ -1,9 +1,10 @@
 """Pushes: horizontal velocity impulses on the pelvis, and what the paper measures after each.
 
 After a push at position x_last with direction d, the 1 s window is the paper's "after-disturb" period. The
-reference the robot should follow meanwhile is x_ref(t) = x_last + v_ref t, with v_ref the commanded velocity
-turned into the world frame at the push (0 without a command, the paper's equation). Deviation and the velocity
-term of r_disturb are both taken relative to that reference.
+reference the robot should follow meanwhile starts at x_last with the robot's heading and moves as the commanded
+twist (forward, sideways, yaw rate) moves a body: along an arc when a yaw rate is commanded, along the line
+x_last + v_ref t when none is, and not at all without a command (the paper's equation). Deviation and the velocity
+term of r_disturb are both taken relative to that reference, so turning as told inside a window costs nothing.
 """
 
 from __future__ import annotations
@@ -28,8 +29,12 @@ class Pushes:
         self.origin = torch.zeros(n, 2, device=self.device)
         self.com_origin = torch.zeros(n, 2, device=self.device)
         self.origin_height = torch.zeros(n, device=self.device)
+        self.ref_yaw = torch.zeros(n, device=self.device)
+        """The reference's heading, rad, world frame: the robot's at the push, then turning at the commanded rate."""
+        self.ref_offset = torch.zeros(n, 2, device=self.device)
+        """How far the reference moved since the push, m, world frame."""
         self.ref_vel = torch.zeros(n, 2, device=self.device)
-        self.elapsed = torch.zeros(n, device=self.device)
+        """The reference's velocity now, m/s, world frame: the commanded velocity turned by ``ref_yaw``."""
         self.max_deviation = torch.zeros(n, device=self.device)
         """Largest base deviation from the reference in the current window, m."""
         self.max_com_deviation = torch.zeros(n, device=self.device)
@@ -86,13 +91,11 @@ class Pushes:
         kick = torch.where(due, speed, 0.0).unsqueeze(-1) * direction
         physics.qvel[:, :2] += kick.to(physics.qvel.dtype)  # the free joint's world-frame linear velocity
         yaw = yaw_of(robot.base_quat)
-        cmd = commands[:, :2]
-        ref_vel = torch.stack(
-            [yaw.cos() * cmd[:, 0] - yaw.sin() * cmd[:, 1], yaw.sin() * cmd[:, 0] + yaw.cos() * cmd[:, 1]], -1)
         pushed = {
             "next_speed": math.nan, "next_angle": math.nan, "direction": direction, "origin": robot.base_pos[:, :2],
-            "com_origin": robot.com_pos[:, :2], "origin_height": robot.base_pos[:, 2], "ref_vel": ref_vel,
-            "elapsed": 0.0, "max_deviation": 0.0, "max_com_deviation": 0.0, "window": self.window_steps,
+            "com_origin": robot.com_pos[:, :2], "origin_height": robot.base_pos[:, 2], "ref_yaw": yaw,
+            "ref_offset": 0.0, "ref_vel": rotate(commands[:, :2], yaw), "max_deviation": 0.0,
+            "max_com_deviation": 0.0, "window": self.window_steps,
             "countdown": self._interval(n),
         }
         for name, value in pushed.items():
@@ -100,13 +103,26 @@ class Pushes:
             mask = due.view(-1, *([1] * (current.dim() - 1)))
             current.copy_(torch.where(mask, value, current))  # a Python number stays on the host side
 
-    def reference_offset(self) -> torch.Tensor:
-        """[N, 2] v_ref t: how far the reference moved since the push."""
-        return self.ref_vel * self.elapsed.unsqueeze(-1)
+    def advance_reference(self, commands: torch.Tensor) -> None:
+        """Move the reference by one policy step of the commanded twist [N, (forward, sideways, yaw rate)].
+
+        Exact for a twist held over the step: a body moving at (v_x, v_y) in its own frame while turning at w
+        travels (v_x sin(w dt) - v_y (1 - cos(w dt)), v_x (1 - cos(w dt)) + v_y sin(w dt)) / w in the frame it had
+        at the step's start, and (v_x dt, v_y dt) as w -> 0 (sinc keeps that limit free of division by zero)."""
+        v, turn = commands[:, :2], commands[:, 2] * self.dt
+        if not self.cfg.reference_turns:
+            turn = torch.zeros_like(turn)
+        sin_over_w = self.dt * torch.sinc(turn / math.pi)  # sin(w dt) / w
+        one_minus_cos_over_w = self.dt * torch.sin(turn / 2) * torch.sinc(turn / (2 * math.pi))  # (1 - cos(w dt)) / w
+        step = torch.stack([v[:, 0] * sin_over_w - v[:, 1] * one_minus_cos_over_w,
+                            v[:, 0] * one_minus_cos_over_w + v[:, 1] * sin_over_w], dim=-1)
+        self.ref_offset = self.ref_offset + rotate(step, self.ref_yaw)
+        self.ref_yaw = self.ref_yaw + turn
+        self.ref_vel = rotate(v, self.ref_yaw)
 
     def deviation(self, robot: RobotState) -> torch.Tensor:
-        """[N, 2] base position minus the reference x_last + v_ref t."""
-        return robot.base_pos[:, :2] - (self.origin + self.reference_offset())
+        """[N, 2] base position minus the reference."""
+        return robot.base_pos[:, :2] - (self.origin + self.ref_offset)
 
     def timing(self) -> torch.Tensor:
         """[N, 2] the window's share still to come, and the time to the next push as a share of the longest
@@ -120,15 +136,16 @@ class Pushes:
 
     def com_deviation(self, robot: RobotState) -> torch.Tensor:
         """[N, 2] whole-body COM minus its reference."""
-        return robot.com_pos[:, :2] - (self.com_origin + self.reference_offset())
+        return robot.com_pos[:, :2] - (self.com_origin + self.ref_offset)
 
     def relative_velocity_along_push(self, robot: RobotState) -> torch.Tensor:
-        """[N] |(v_base - v_ref) . d|: motion along the push relative to the reference, m/s."""
+        """[N] |(v_base - v_ref) . d|: motion along the push relative to the reference's velocity now, m/s."""
         return ((robot.base_lin_vel_w[:, :2] - self.ref_vel) * self.direction).sum(-1).abs()
 
-    def track(self, robot: RobotState) -> None:
-        """After the physics step: advance the reference and keep the largest deviations inside the window."""
-        self.elapsed += self.dt
+    def track(self, robot: RobotState, commands: torch.Tensor) -> None:
+        """After the physics step: advance the reference by the step's command and keep the largest deviations
+        inside the window."""
+        self.advance_reference(commands)
         inside = self.active
         self.max_deviation = torch.where(
             inside, torch.maximum(self.max_deviation, self.deviation(robot).norm(dim=-1)), self.max_deviation)
@@ -142,3 +159,9 @@ class Pushes:
 
     def advance_window(self) -> None:
         self.window = (self.window - 1).clamp(min=0)
+
+
+def rotate(xy: torch.Tensor, yaw: torch.Tensor) -> torch.Tensor:
+    """[N, 2] vectors turned by ``yaw`` [N] (rad) about the vertical: body frame -> world frame."""
+    c, s = yaw.cos(), yaw.sin()
+    return torch.stack([c * xy[:, 0] - s * xy[:, 1], s * xy[:, 0] + c * xy[:, 1]], dim=-1)

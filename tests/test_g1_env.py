@@ -241,7 +241,7 @@ def test_r_disturb_measures_position_and_velocity_against_the_same_moving_refere
     pushes, robot = env.pushes, env.robot
     pushes.direction[:] = torch.tensor([1.0, 0.0])
     pushes.ref_vel[:] = torch.tensor([0.5, 0.0])  # heading along +x
-    pushes.elapsed[:] = 0.4
+    pushes.ref_offset[:] = torch.tensor([0.2, 0.0])  # 0.4 s after the push
     robot.base_pos = robot.base_pos.clone()
     robot.base_lin_vel_w = robot.base_lin_vel_w.clone()
     robot.base_pos[:, :2] = pushes.origin + torch.tensor([0.2, 0.0])  # on the reference after 0.4 s
@@ -250,6 +250,66 @@ def test_r_disturb_measures_position_and_velocity_against_the_same_moving_refere
     reward = g1_rewards.disturbance(env)
     assert reward[0].item() == pytest.approx(0.0, abs=1e-6)
     assert reward[1].item() == pytest.approx(-0.5, abs=1e-6)
+
+
+def test_r_disturb_reference_turns_with_the_commanded_yaw_rate():
+    """Told 0.5 m/s forward and 0.5 rad/s left for 1 s from heading pi/2, the reference runs along a circle of
+    radius 1 m: worked by hand, it ends (sin 0.5, 1 - cos 0.5) = (0.4794, 0.1224) m ahead and to the left in the
+    push-time frame, i.e. (-0.1224, 0.4794) m in the world, moving 0.5 m/s at heading pi/2 + 0.5. A robot on that
+    arc pays nothing; one that walked straight on pays for the chord it missed."""
+    from pchc_rsl.envs import g1_rewards
+
+    env = make_walk_env(num_envs=2)
+    env.commands[:] = torch.tensor([0.5, 0.0, 0.5])
+    push_now(env)
+    pushes, robot = env.pushes, env.robot
+    pushes.ref_yaw[:] = math.pi / 2
+    pushes.ref_vel[:] = torch.tensor([0.0, 0.5])
+    steps = round(1.0 / env.dt)
+    for _ in range(steps):
+        pushes.advance_reference(env.commands)
+    end = torch.tensor([-(1 - math.cos(0.5)), math.sin(0.5)])
+    torch.testing.assert_close(pushes.ref_offset, end.expand(2, 2), atol=1e-5, rtol=0)
+    heading = math.pi / 2 + 0.5
+    torch.testing.assert_close(pushes.ref_vel, 0.5 * torch.tensor([math.cos(heading), math.sin(heading)]).expand(2, 2),
+                               atol=1e-5, rtol=0)
+    pushes.direction[:] = torch.tensor([1.0, 0.0])
+    robot.base_pos = robot.base_pos.clone()
+    robot.base_lin_vel_w = robot.base_lin_vel_w.clone()
+    robot.base_pos[0, :2] = pushes.origin[0] + end  # env 0 turned as told
+    robot.base_lin_vel_w[0, :2] = 0.5 * torch.tensor([math.cos(heading), math.sin(heading)])
+    robot.base_pos[1, :2] = pushes.origin[1] + torch.tensor([0.0, 0.5])  # env 1 walked straight on, 0.5 m
+    robot.base_lin_vel_w[1, :2] = torch.tensor([0.0, 0.5])
+    reward = g1_rewards.disturbance(env)
+    assert reward[0].item() == pytest.approx(0.0, abs=1e-5)
+    missed = math.hypot(0.0 - end[0].item(), 0.5 - end[1].item())
+    along_push = abs(0.0 - 0.5 * math.cos(heading))
+    assert reward[1].item() == pytest.approx(-missed - along_push, abs=1e-5)
+
+
+def test_r_disturb_reference_follows_a_sideways_command_in_the_push_time_frame():
+    """0.3 m/s to the left with no yaw rate, heading pi/2 at the push: after 0.5 s the reference is 0.15 m along -x."""
+    env = make_walk_env(num_envs=1)
+    env.commands[:] = torch.tensor([0.0, 0.3, 0.0])
+    push_now(env)
+    env.pushes.ref_yaw[:] = math.pi / 2
+    for _ in range(round(0.5 / env.dt)):
+        env.pushes.advance_reference(env.commands)
+    torch.testing.assert_close(env.pushes.ref_offset[0], torch.tensor([-0.15, 0.0]), atol=1e-6, rtol=0)
+
+
+def test_r_disturb_reference_moves_straight_without_reference_turns():
+    """The paper's x_last + v_ref t: told 0.5 m/s and 0.5 rad/s from heading 0, after 1 s the reference is 0.5 m
+    straight ahead."""
+    from pchc_rsl.envs.g1_config import PushConfig
+
+    env = make_walk_env(num_envs=1, push=PushConfig(reference_turns=False))
+    env.commands[:] = torch.tensor([0.5, 0.0, 0.5])
+    push_now(env)
+    env.pushes.ref_yaw[:] = 0.0
+    for _ in range(round(1.0 / env.dt)):
+        env.pushes.advance_reference(env.commands)
+    torch.testing.assert_close(env.pushes.ref_offset[0], torch.tensor([0.5, 0.0]), atol=1e-5, rtol=0)
 
 
 def test_critic_push_timing_adds_the_window_left_and_the_time_to_the_next_push():
