@@ -94,3 +94,33 @@ def test_cells_run_seed_by_seed_with_the_studys_settings():
     assert pci[pci.index("--routing-scale") + 1] == "3" and "--match-pci-parameters" in gated
     for args in (pci, gated):
         assert args[args.index("--steps") + 1] == "2000000" and args[args.index("--eval-every") + 1] == "250000"
+
+
+def test_runs_of_the_landed_report_count_as_finished_and_are_not_trained_again(tmp_path, monkeypatch):
+    """A new machine's empty run folder: the landed report's pci seed 0 and gated seed 0 stay in the report and only
+    seed 1's cells run; a run finished in the folder wins over the landed row of the same cell."""
+    first = tmp_path / "first"
+    write_run(first, fake_result("pci", 0, 2.0, 1.0), 1800)
+    write_run(first, fake_result("gated", 0, 1.0, 1.0), 1800)
+    landed_path = tmp_path / "landed.json"
+    landed_path.write_text(json.dumps(pci_vs_gated.write_report(str(first), [0, 1], None)))
+    ran = []
+    monkeypatch.setattr(pci_vs_gated, "run_cell", lambda cell, root: ran.append((cell.name, cell.seed)))
+    monkeypatch.setattr(pci_vs_gated, "plot", lambda study, path: None)
+    second = tmp_path / "second"
+    study = pci_vs_gated.main(["--out", str(second), "--seeds", "0", "1", "--landed", str(landed_path)])
+    assert ran == [("pci", 1), ("gated", 1)]
+    assert [(r["variant"], r["seed"]) for r in study["runs"]] == [("pci", 0), ("gated", 0)]
+    assert study["paired_log_ratio_pci_over_gated"]["final/hypervolume"]["log_ratios"] == pytest.approx([math.log(2)])
+    assert study["core_hours"] == pytest.approx(1.0)
+    write_run(second, fake_result("pci", 0, 4.0, 1.0), 900)
+    study = pci_vs_gated.main(["--out", str(second), "--seeds", "0", "1", "--landed", str(landed_path),
+                               "--report-only"])
+    assert study["paired_log_ratio_pci_over_gated"]["final/hypervolume"]["log_ratios"] == pytest.approx([math.log(4)])
+
+
+def test_a_landed_report_of_another_study_is_refused(tmp_path):
+    other = tmp_path / "other.json"
+    other.write_text(json.dumps({"task": "mo-hopper-2obj-v5", "steps": 1_000_000, "runs": []}))
+    with pytest.raises(SystemExit, match="not of mo-halfcheetah-v5 at 2000000"):
+        pci_vs_gated.main(["--out", str(tmp_path / "runs"), "--landed", str(other), "--report-only"])

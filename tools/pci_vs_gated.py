@@ -12,8 +12,13 @@ gated) over the pairs gets a 95% Student-t interval. The 1M evaluation of the sa
 
 Cells run seed by seed, PCI then gated, so a partial study is paired. They use tools/mo_study.py's claims: a finished
 cell (its result.json, written atomically at its end) is skipped, an interrupted one resumes from its newest
-checkpoint (tools/mo_benchmark.py --resume), and several workers may share the study. The report writes ``pci_vs_gated.json`` (one row per run with its evaluations,
-then the intervals), ``pci_vs_gated.png``, and the study's section of ``mo_study.md``.
+checkpoint (tools/mo_benchmark.py --resume), and several workers may share the study. The report writes
+``pci_vs_gated.json`` (one row per run with its evaluations, then the intervals), ``pci_vs_gated.png``, and the
+study's section of ``mo_study.md``.
+
+A run folder lives on one machine; the report in the repository outlives it. Runs recorded as finished in
+``--landed`` (default: the repository's docs/results/pci_vs_gated.json) count as finished: they are not trained
+again and their rows stay in the report, so the study continues on any machine from what has landed.
 """
 
 from __future__ import annotations
@@ -48,6 +53,7 @@ VARIANT_ARGS = {
 }
 MEASURES = ("hypervolume", "expected_utility")
 SECTION = "pci-vs-gated"
+LANDED = os.path.join(HERE, "..", "docs", "results", "pci_vs_gated.json")
 
 
 def study_cells(seeds: list[int]) -> list[Cell]:
@@ -143,7 +149,22 @@ def analysis(rows: list[dict]) -> dict:
     return out
 
 
-def load_rows(root: str, seeds: list[int]) -> list[dict]:
+def landed_rows(path: str | None) -> list[dict]:
+    """The finished runs of an earlier report (its JSON's ``runs``); none where there is no such file."""
+    if not path or not os.path.isfile(path):
+        return []
+    with open(path) as f:
+        study = json.load(f)
+    if study.get("task") != TASK or study.get("steps") != STEPS:
+        raise SystemExit(f"{path} is a report of {study.get('task')} at {study.get('steps')} env steps, not of "
+                         f"{TASK} at {STEPS}: pass --landed with this study's report, or --landed ''")
+    return study["runs"]
+
+
+def load_rows(root: str, seeds: list[int], landed: list[dict] | None = None) -> list[dict]:
+    """One row per finished cell, in the study's order: from its result.json in the run folder, else from the
+    landed report."""
+    by_cell = {(r["variant"], r["seed"]): r for r in landed or []}
     rows = []
     for cell in study_cells(seeds):
         path = os.path.join(cell.folder(root), "result.json")
@@ -151,14 +172,19 @@ def load_rows(root: str, seeds: list[int]) -> list[dict]:
             with open(path) as f:
                 result = json.load(f)
             rows.append(run_row(result))
+        elif (cell.name, cell.seed) in by_cell:
+            rows.append(by_cell[(cell.name, cell.seed)])
     return rows
 
 
-def unfinished_runs(root: str, seeds: list[int]) -> list[dict]:
+def unfinished_runs(root: str, seeds: list[int], landed: list[dict] | None = None) -> list[dict]:
     """Started cells without a result: how far their newest checkpoint got (where a resumed run continues)."""
+    finished = {(r["variant"], r["seed"]) for r in landed or []}
     runs = []
     for cell in study_cells(seeds):
         folder = cell.folder(root)
+        if (cell.name, cell.seed) in finished:
+            continue
         if os.path.isdir(folder) and not os.path.isfile(os.path.join(folder, "result.json")):
             saved = checkpoints(folder)
             steps = (max(saved) + 1) * 2048 if saved else 0  # 16 envs x 128 steps per update
@@ -265,7 +291,8 @@ def markdown_section(study: dict) -> str:
         "evaluation of every run, the intervals, the commands); figure: `pci_vs_gated.png` (each run's measures "
         "against env steps, and each pair's log-ratio with the interval).",
         "",
-        f"Reproduce or continue the whole study (resumable; RUNS is the run folder): `{study['commands']['study']}`, "
+        "Reproduce or continue the whole study (resumable; RUNS is the run folder, and the finished runs recorded in "
+        f"`pci_vs_gated.json` are kept, not trained again): `{study['commands']['study']}`, "
         f"then `{study['commands']['report']}`. One cell, e.g. pci seed 0: "
         f"`{study['commands']['cells']['pci/seed0']}`; gated seed 0: `{study['commands']['cells']['gated/seed0']}` "
         "(other seeds: change `--seed` and the folder; every cell's command is in the JSON). All at one thread "
@@ -320,8 +347,8 @@ def plot(study: dict, path: str) -> None:
     plt.close(fig)
 
 
-def write_report(root: str, seeds: list[int], docs: str | None) -> dict:
-    study = study_json(load_rows(root, seeds), seeds, unfinished_runs(root, seeds))
+def write_report(root: str, seeds: list[int], docs: str | None, landed: list[dict] | None = None) -> dict:
+    study = study_json(load_rows(root, seeds, landed), seeds, unfinished_runs(root, seeds, landed))
     for folder in [root] + ([docs] if docs else []):
         os.makedirs(folder, exist_ok=True)
         write_json_atomically(os.path.join(folder, "pci_vs_gated.json"), study)
@@ -340,13 +367,20 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--seeds", type=int, nargs="+", default=SEEDS)
     parser.add_argument("--report-only", action="store_true", help="write the report from finished runs only")
     parser.add_argument("--docs", help="also write the JSON, figure and mo_study.md section into this folder")
+    parser.add_argument("--landed", default=LANDED,
+                        help="an earlier report whose finished runs count as finished (default: the repository's "
+                             "docs/results/pci_vs_gated.json; '' for none)")
     args = parser.parse_args(argv)
+    landed = landed_rows(args.landed)
+    done = {(r["variant"], r["seed"]) for r in landed}
     if not args.report_only:
         for cell in study_cells(args.seeds):
+            if (cell.name, cell.seed) in done:
+                continue
             if not os.path.isfile(os.path.join(cell.folder(args.out), "result.json")):
                 run_cell(cell, args.out)
-                write_report(args.out, args.seeds, None)  # the run folder's report is current after every run
-    study = write_report(args.out, args.seeds, args.docs)
+                write_report(args.out, args.seeds, None, landed)  # the run folder's report is current after every run
+    study = write_report(args.out, args.seeds, args.docs, landed)
     for key, entry in study["paired_log_ratio_pci_over_gated"].items():
         print(f"{key}: {interval_text(entry)}")
     return study
