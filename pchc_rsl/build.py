@@ -15,10 +15,10 @@ from rsl_rl.utils import resolve_callable
 
 from pchc_rsl.configs import TaskConfig, task_config
 from pchc_rsl.configs.base import ACTOR_CLASSES, apply_saved
-from pchc_rsl.distributed import bind_local_gpu, world
-from pchc_rsl.files import atomic_write
 from pchc_rsl.preference import LEGACY_ROUTING_SCALE
 from pchc_rsl.runners import PCHCRunner
+from pchc_rsl.utils.distributed import bind_local_gpu, world
+from pchc_rsl.utils.files import atomic_write
 
 
 def make_env(cfg: TaskConfig):

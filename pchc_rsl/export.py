@@ -15,9 +15,9 @@ import warnings
 import numpy as np
 import torch
 
-from pchc_rsl.files import atomic_write
-from pchc_rsl.finite import first_non_finite_module_tensor
 from pchc_rsl.preference import SUM_TOLERANCE, validate_preference
+from pchc_rsl.utils.files import atomic_write
+from pchc_rsl.utils.finite import first_non_finite_module_tensor
 
 OPSET = 18
 

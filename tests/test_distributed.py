@@ -10,7 +10,7 @@ WORKER = '''
 import sys, torch
 from pchc_rsl.build import make_runner
 from pchc_rsl.configs import task_config
-from pchc_rsl.distributed import world
+from pchc_rsl.utils.distributed import world
 cfg = task_config("toy")
 cfg.num_envs = 8
 runner = make_runner(cfg)
@@ -127,7 +127,7 @@ def test_a_gpu_run_saves_and_restores_its_own_gpus_random_stream_only(monkeypatc
 
 
 def test_training_leaves_the_process_group(monkeypatch):
-    from pchc_rsl import distributed
+    from pchc_rsl.utils import distributed
 
     calls = []
     monkeypatch.setattr(torch.distributed, "is_initialized", lambda: True)

@@ -1,7 +1,7 @@
 """Host syncs of the training loop: at most one per env step (the env's own), counted without a GPU.
 
 Every call that would read a tensor's value on the host (a device-to-host sync on a GPU) is recorded by
-``pchc_rsl.host_reads.HostReads``; C MuJoCo's own numpy transfers are left out (a device physics makes none).
+``pchc_rsl.utils.host_reads.HostReads``; C MuJoCo's own numpy transfers are left out (a device physics makes none).
 """
 
 import collections
@@ -12,7 +12,7 @@ import pytest
 import torch
 from tensordict import TensorDict
 
-from pchc_rsl.host_reads import HostReads
+from pchc_rsl.utils.host_reads import HostReads
 from rsl_rl.utils import check_nan
 from rsl_rl.utils.logger import Logger
 
@@ -94,7 +94,7 @@ def test_episode_book_keeping_on_the_device_matches_rsl_rls():
 
 
 def test_nan_from_the_env_stops_the_rollout_naming_its_source():
-    from pchc_rsl.finite import RolloutNaNCheck
+    from pchc_rsl.utils.finite import RolloutNaNCheck
 
     check = RolloutNaNCheck()
     clean = TensorDict({"policy": torch.zeros(3, 2), "critic": torch.zeros(3, 2)}, batch_size=[3])

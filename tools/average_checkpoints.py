@@ -22,8 +22,8 @@ import os
 
 import torch
 
-from pchc_rsl.files import atomic_write
 from pchc_rsl.runners.checkpoint import load_checkpoint
+from pchc_rsl.utils.files import atomic_write
 
 AVERAGED = ("actor_state_dict", "critic_state_dict", "value_normalizer_state_dict")
 

@@ -18,8 +18,8 @@ import tempfile
 import torch
 
 from pchc_rsl.export import export_checkpoint
-from pchc_rsl.files import atomic_write
 from pchc_rsl.runners.checkpoint import load_checkpoint, release_checkpoint
+from pchc_rsl.utils.files import atomic_write
 
 
 def main(argv: list[str] | None = None) -> list[str]:

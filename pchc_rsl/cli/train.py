@@ -68,7 +68,7 @@ def build_parser(task_help: str = "") -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> None:
-    from pchc_rsl.distributed import world
+    from pchc_rsl.utils.distributed import world
 
     if world()[1] != 0:  # torchrun: rank 0 speaks for the run; the others print only errors
         sys.stdout = open(os.devnull, "w")  # noqa: SIM115 - for the life of the process
@@ -99,10 +99,10 @@ def main(argv: list[str] | None = None) -> None:
 def resolve(args) -> tuple:
     """The TaskConfig to train (the task's, or the checkpoint's with --resume), flags and KEY=VALUE overrides
     applied and checked; the config dict checkpoints will carry; lines to tell the user."""
-    from pchc_rsl.checks import check_task_config
     from pchc_rsl.build import restore_config, saved_config
-    from pchc_rsl.overrides import apply_overrides, config_fields, set_value
+    from pchc_rsl.checks import check_task_config
     from pchc_rsl.configs import task_config
+    from pchc_rsl.overrides import apply_overrides, config_fields, set_value
     from pchc_rsl.preference import validate_preference
     from pchc_rsl.runners import load_checkpoint
 
@@ -192,9 +192,9 @@ def train(cfg, config: dict, log_dir: str, args) -> None:
     """Build, train, and close with a summary; a failed run that saved no checkpoint leaves no folder behind."""
     from pchc_rsl.build import make_runner
     from pchc_rsl.run_folder import checkpoints_in, first_missing_folder, remove_if_unused
-    from pchc_rsl.distributed import DistributedSetupError, world
     from pchc_rsl.runners import NonFiniteTraining, TrainingInterrupted
     from pchc_rsl.threads import apply_threads
+    from pchc_rsl.utils.distributed import DistributedSetupError, world
 
     created = first_missing_folder(log_dir)
     owns_folder = world()[1] == 0  # torchrun: the run folder is rank 0's; a failing rank > 0 leaves it alone
@@ -285,8 +285,8 @@ def _stop_on_signals() -> None:
 def _summary(cfg, log_dir: str, checkpoint: str, start: float, last: int | None = None) -> None:
     """Where everything is and what to run next, with the real paths; ``last``: the iteration the run meant to end
     at (an interrupted run continues with what is left)."""
-    from pchc_rsl.run_folder import checkpoints_in
     from pchc_rsl.evaluation import TASK_EVALUATION
+    from pchc_rsl.run_folder import checkpoints_in
 
     q = shlex.quote
     names = ", ".join(os.path.basename(p) for p in checkpoints_in(log_dir))
@@ -315,8 +315,8 @@ def _task_help(argv: list[str]) -> str:
     known, _ = pre.parse_known_args(argv)
     if known.task not in TASKS:
         return "Give --task TASK with --help to list that task's config."
-    from pchc_rsl.overrides import format_config
     from pchc_rsl.configs import task_config
+    from pchc_rsl.overrides import format_config
 
     return f"config of task {known.task} (set any with KEY=VALUE):\n" + format_config(task_config(known.task))
 

@@ -1,0 +1,3 @@
+"""Helpers that know nothing of PCHC: atomic file writes (``files``), finding NaN and inf (``finite``), the torchrun
+world and process group (``distributed``), counting a tensor's reads on the host (``host_reads``). Import each module
+by its path; this package imports nothing."""
