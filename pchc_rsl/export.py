@@ -183,8 +183,8 @@ class OnnxPolicy:
 def export_checkpoint(checkpoint: str, output: str, verbose: bool = False) -> str:
     """Rebuild a pchc-train checkpoint's policy from its saved config (on the CPU, one env) and export it to
     ``output`` with the env's deploy metadata; returns the path written."""
-    from pchc_rsl.build import make_runner, restore_config, saved_config
     from pchc_rsl.runners import load_checkpoint
+    from pchc_rsl.training.build import make_runner, restore_config, saved_config
 
     cfg = restore_config(saved_config(checkpoint, load_checkpoint(checkpoint)))
     cfg.num_envs, cfg.device = 1, "cpu"

@@ -16,7 +16,7 @@ def write_clip(path, joints, frames=120, fps=30):
 
 def test_style_reward_joins_the_task_group_and_the_checkpoint(tmp_path, capsys):
     from pchc_rsl.cli import train
-    from pchc_rsl.build import make_runner
+    from pchc_rsl.training.build import make_runner
 
     write_clip(tmp_path / "clip.npz", WALK_JOINTS)
     cfg = task_config("g1-walk-fast")
@@ -56,7 +56,7 @@ def test_real_clips_drive_the_walking_discriminator(tmp_path):
     motion_dir = os.environ.get("PCHC_MOTION_DIR")
     if not motion_dir:
         pytest.skip("PCHC_MOTION_DIR is not set")
-    from pchc_rsl.build import make_runner
+    from pchc_rsl.training.build import make_runner
 
     cfg = task_config("g1-walk-fast")
     cfg.num_envs = 2

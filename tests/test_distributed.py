@@ -8,8 +8,8 @@ import torch
 
 WORKER = '''
 import sys, torch
-from pchc_rsl.build import make_runner
 from pchc_rsl.configs import task_config
+from pchc_rsl.training.build import make_runner
 from pchc_rsl.utils.distributed import world
 cfg = task_config("toy")
 cfg.num_envs = 8
@@ -39,8 +39,8 @@ def test_two_cpu_processes_keep_identical_parameters(tmp_path):
             assert torch.equal(tensor, ranks[1][part][name]), f"{part}.{name} differs between the ranks"
     # learning happened: the parameters moved away from rank 0's initial ones
     torch.manual_seed(1)
-    from pchc_rsl.build import make_runner
     from pchc_rsl.configs import task_config
+    from pchc_rsl.training.build import make_runner
 
     cfg = task_config("toy")
     cfg.num_envs = 8
@@ -93,8 +93,8 @@ def test_a_gpu_rank_starts_nccl_once_on_the_gpu_of_its_local_rank(monkeypatch):
 def test_the_env_is_built_on_the_gpu_of_the_local_rank_set_before_it(monkeypatch):
     """torchrun rank 1 on CUDA: make_runner makes cuda:1 the current device before the env exists (its physics may
     allocate on the GPU), and the env and runner are given cuda:1. CUDA and the builders are recorders."""
-    from pchc_rsl import build
     from pchc_rsl.configs import task_config
+    from pchc_rsl.training import build
 
     calls = []
     monkeypatch.setenv("WORLD_SIZE", "2")
@@ -143,9 +143,9 @@ def test_a_failing_rank_other_than_0_leaves_rank_0s_run_folder_alone(tmp_path, m
 
     import pytest
 
-    from pchc_rsl import build
     from pchc_rsl.cli import train
     from pchc_rsl.configs import task_config
+    from pchc_rsl.training import build
 
     def failing(*args, **kwargs):
         raise ValueError("this rank failed")

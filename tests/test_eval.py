@@ -112,9 +112,9 @@ def test_settle_time_of_a_step_change():
 def test_every_walking_evaluation_episode_is_commanded_the_evaluation_speed():
     """Walking trains with 15% standing episodes; the evaluation commands 0.5 m/s in every episode, so that no
     walking figure mixes in episodes told to stand."""
-    from pchc_rsl.build import make_env
     from pchc_rsl.configs import task_config
     from pchc_rsl.evaluation import evaluation_preset
+    from pchc_rsl.training.build import make_env
 
     cfg = task_config("g1-walk-fast")
     assert cfg.env.zero_command_probability > 0  # what the preset has to undo

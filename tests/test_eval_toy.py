@@ -7,11 +7,11 @@ import os
 import pytest
 import torch
 
-import pchc_rsl.evaluation
 from pchc_rsl.cli import eval as eval_cli
 from pchc_rsl.cli import train as train_cli
-from pchc_rsl.build import make_runner, restore_config
+import pchc_rsl.evaluation
 from pchc_rsl.evaluation import TOY_EVALUATION, format_metric
+from pchc_rsl.training.build import make_runner, restore_config
 
 
 @pytest.fixture(scope="module")

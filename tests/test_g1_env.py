@@ -26,7 +26,7 @@ pytestmark = pytest.mark.skipif(not g1_available(), reason="G1 model unavailable
 
 
 def make_walk_env(num_envs=4, seed=0, **env_overrides):
-    from pchc_rsl.build import make_env
+    from pchc_rsl.training.build import make_env
 
     cfg = task_config("g1-walk-fast")
     cfg.num_envs, cfg.seed = num_envs, seed
@@ -664,7 +664,7 @@ def test_a_step_waits_on_the_device_only_for_the_reset_indices(monkeypatch, task
     """One host sync per step, the indices of the envs to reset (rsl-rl's own Logger makes the same one
     at every step); pushes, the divergence check, preference resampling, the curriculum and the episode log work
     on masks. The recorder can fail: a boolean-mask assignment in the env is caught (last lines)."""
-    from pchc_rsl.build import make_env
+    from pchc_rsl.training.build import make_env
 
     cfg = task_config(task)
     cfg.num_envs = 4

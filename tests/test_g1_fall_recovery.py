@@ -8,7 +8,7 @@ from pchc_rsl.envs.g1_fall_recovery import host_success, standing_phase
 
 
 def make_env(num_envs=3, **overrides):
-    from pchc_rsl.build import make_env as build
+    from pchc_rsl.training.build import make_env as build
 
     cfg = task_config("g1-fall-recovery-fast")
     cfg.num_envs = num_envs

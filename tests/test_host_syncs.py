@@ -47,8 +47,8 @@ def test_a_g1_walking_rollout_reads_the_host_once_per_env_step(tmp_path, amp):
     motion_dir = os.environ.get("PCHC_MOTION_DIR")
     if amp and not motion_dir:
         pytest.skip("PCHC_MOTION_DIR is not set")
-    from pchc_rsl.build import make_runner
     from pchc_rsl.configs import task_config
+    from pchc_rsl.training.build import make_runner
 
     cfg = task_config("g1-walk-fast")
     cfg.num_envs, cfg.runner.num_steps_per_env = 4, 6

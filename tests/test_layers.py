@@ -31,7 +31,8 @@ def library_files():
 
 def test_the_import_check_sees_an_import_of_the_cli(tmp_path):
     sample = tmp_path / "sample.py"
-    sample.write_text("import os\nfrom pchc_rsl.cli.play import main\nfrom pchc_rsl import cli\nimport pchc_rsl.build\n")
+    sample.write_text("import os\nfrom pchc_rsl.cli.play import main\nfrom pchc_rsl import cli\n"
+                      "import pchc_rsl.training.build\n")
     assert cli_imports(sample) == ["2: pchc_rsl.cli.play", "2: pchc_rsl.cli.play.main", "3: pchc_rsl.cli"]
 
 

@@ -2,8 +2,8 @@
 
 import torch
 
-from pchc_rsl.build import make_runner
 from pchc_rsl.configs import task_config
+from pchc_rsl.training.build import make_runner
 
 PREFERENCES = [(1.0, 0.0), (0.75, 0.25), (0.5, 0.5), (0.25, 0.75), (0.0, 1.0)]
 

@@ -16,8 +16,8 @@ def walk_runner():
 
     if not g1_available():
         pytest.skip("the G1 model is not available (set MENAGERIE_ROOT)")
-    from pchc_rsl.build import make_runner
     from pchc_rsl.configs import task_config
+    from pchc_rsl.training.build import make_runner
 
     cfg = task_config("g1-walk-fast")
     cfg.num_envs, cfg.runner.num_steps_per_env = 8, 8

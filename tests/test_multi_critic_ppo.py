@@ -2,7 +2,7 @@ import pytest
 import torch
 
 from pchc_rsl.algorithms import MultiCriticPPO
-from pchc_rsl.build import make_runner
+from pchc_rsl.training.build import make_runner
 
 
 @pytest.fixture

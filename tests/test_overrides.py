@@ -5,8 +5,8 @@ import dataclasses
 import pytest
 
 from pchc_rsl.cli import train as train_cli
-from pchc_rsl.overrides import OverrideError, apply_overrides, config_fields, format_config
 from pchc_rsl.configs import task_config
+from pchc_rsl.training.overrides import OverrideError, apply_overrides, config_fields, format_config
 
 
 def dataclass_leaf_keys(obj, prefix=""):

@@ -22,10 +22,10 @@ def test_default_conditions_cover_the_shifts_of_each_task():
 def test_condition_overrides_reach_the_evaluated_env(walk_checkpoint):
     """Built as the evaluation builds them: 20 ms is 4 substeps of 5 ms in every env; friction 0.4, +5 kg and
     x0.8 strength are the model's own values (read from the MjModel, not from the config)."""
-    from pchc_rsl.build import make_env, saved_config
     from pchc_rsl.evaluation import evaluation_config
     from pchc_rsl.robots.g1.model import build_g1_model
     from pchc_rsl.runners import load_checkpoint
+    from pchc_rsl.training.build import make_env, saved_config
 
     config = saved_config(walk_checkpoint, load_checkpoint(walk_checkpoint))
     conditions = {c.name: c.overrides for c in default_conditions(config["task"])}

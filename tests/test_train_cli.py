@@ -293,8 +293,8 @@ def test_loggers_map_to_rsl_rl_log_writers(logger, writer):
 
 
 def test_the_runner_never_replaces_a_checkpoint_it_did_not_write(gated_run, tmp_path):
-    from pchc_rsl.build import make_runner
     from pchc_rsl.configs import task_config
+    from pchc_rsl.training.build import make_runner
 
     with pytest.raises(FileExistsError, match="already holds checkpoints"):
         make_runner(task_config("toy"), str(gated_run))
@@ -319,7 +319,7 @@ def test_overrides_record_every_change_including_in_place_ones(tmp_path):
 
 def test_threads_are_set_for_torch_and_the_physics_and_printed(tmp_path, capsys):
     from pchc_rsl.configs import task_config
-    from pchc_rsl.threads import apply_threads, available_cores
+    from pchc_rsl.training.threads import apply_threads, available_cores
 
     previous = torch.get_num_threads()
     try:
@@ -342,8 +342,8 @@ def test_threads_are_set_for_torch_and_the_physics_and_printed(tmp_path, capsys)
 
 def test_a_pci_checkpoint_that_predates_the_routing_scale_default_keeps_s_10(tmp_path):
     """Checkpoints saved before the default became 3 do not name routing_scale: they were trained with s = 10."""
-    from pchc_rsl.build import make_runner, restore_config
     from pchc_rsl.configs import task_config
+    from pchc_rsl.training.build import make_runner, restore_config
 
     fresh = task_config("toy").to_dict()
     assert make_runner(restore_config(fresh)).alg.actor.mlp.scale == 3.0
@@ -357,8 +357,8 @@ def test_a_pci_checkpoint_that_predates_the_routing_scale_default_keeps_s_10(tmp
 def test_a_checkpoint_saved_before_a_field_existed_runs_with_the_fields_default_not_the_tasks():
     """The walking task now trains with 0-20 ms latency and 15% standing commands; a walker saved before those
     fields existed ran without either, and its restored config must say so (its evaluation did not change)."""
-    from pchc_rsl.build import restore_config
     from pchc_rsl.configs import task_config
+    from pchc_rsl.training.build import restore_config
 
     fresh = task_config("g1-walk-fast")
     assert fresh.env.action_delay_s == (0.0, 0.02) and fresh.env.zero_command_probability == 0.15

@@ -30,7 +30,7 @@ import torch
 
 import pchc_rsl
 from pchc_rsl.runners import load_checkpoint
-from pchc_rsl.build import make_runner, restore_config, saved_config
+from pchc_rsl.training.build import make_runner, restore_config, saved_config
 
 checkpoint, onnx_file = sys.argv[1:]
 cfg = restore_config(saved_config(checkpoint, load_checkpoint(checkpoint)))

@@ -26,9 +26,9 @@ import mujoco
 import numpy as np
 import torch
 
-from pchc_rsl.build import make_env
 from pchc_rsl.configs import task_config
 from pchc_rsl.envs.physics import BatchedMuJoCo
+from pchc_rsl.training.build import make_env
 
 POSTURES = {"standing": "g1-walk", "lying": "g1-fall-recovery"}
 
@@ -86,7 +86,7 @@ def memory_run(num_envs: int) -> None:
     """One process: build N randomised envs and a runner, train one iteration, print the timings."""
     import tempfile
 
-    from pchc_rsl.build import make_runner
+    from pchc_rsl.training.build import make_runner
 
     cfg = task_config("g1-walk-fast")
     cfg.num_envs = num_envs

@@ -21,11 +21,11 @@ import time
 
 import torch
 
-from pchc_rsl.checks import check_device, check_physics
-from pchc_rsl.build import make_runner
-from pchc_rsl.overrides import apply_overrides
 from pchc_rsl.configs import task_config
 from pchc_rsl.envs.physics_backend import make_physics
+from pchc_rsl.training.build import make_runner
+from pchc_rsl.training.checks import check_device, check_physics
+from pchc_rsl.training.overrides import apply_overrides
 
 
 def sync(device: str) -> None:

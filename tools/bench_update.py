@@ -28,10 +28,10 @@ from tensordict import TensorDict
 
 from rsl_rl.storage import RolloutStorage
 
-from pchc_rsl.build import make_runner
 from pchc_rsl.configs import task_config
 from pchc_rsl.envs import g1_symmetry
 from pchc_rsl.storage import MultiCriticRolloutStorage
+from pchc_rsl.training.build import make_runner
 
 
 def reference_apply(values: torch.Tensor, permutation) -> torch.Tensor:

@@ -17,10 +17,10 @@ import numpy as np
 import torch
 from torch.distributions import Categorical
 
-from pchc_rsl.build import restore_config, saved_config
 from pchc_rsl.evaluation import loaded_policy
 from pchc_rsl.evaluation import evenly_spaced_preferences
 from pchc_rsl.runners.checkpoint import load_checkpoint
+from pchc_rsl.training.build import restore_config, saved_config
 
 
 def mean_routing(runner, preference, steps: int) -> tuple[np.ndarray, float]:

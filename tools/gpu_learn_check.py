@@ -20,8 +20,8 @@ import warnings
 
 import torch
 
-from pchc_rsl.build import make_runner
 from pchc_rsl.configs import task_config
+from pchc_rsl.training.build import make_runner
 
 
 def count_syncs_of_second_rollout(runner, counts: list) -> None:

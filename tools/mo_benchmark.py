@@ -288,7 +288,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> dict:
     args = build_parser().parse_args(argv)
-    from pchc_rsl.build import make_runner
+    from pchc_rsl.training.build import make_runner
 
     cfg = task_config(args.task)
     cfg.seed = args.seed

@@ -15,8 +15,8 @@ import sys
 
 import torch
 
-from pchc_rsl.build import make_env
 from pchc_rsl.configs import task_config
+from pchc_rsl.training.build import make_env
 
 
 def main(argv: list[str] | None = None) -> float:

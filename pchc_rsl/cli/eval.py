@@ -170,9 +170,9 @@ def check_inputs(args) -> tuple[str, dict, list[tuple[float, ...]]]:
     """Everything that can be refused before evaluating: unreadable checkpoints, tasks without an evaluation or
     differing between checkpoints, preferences off the simplex, --switch on a task without it, a file as --output.
     Returns the task, each checkpoint's saved config and the preferences."""
-    from pchc_rsl.build import saved_config
     from pchc_rsl.preference import validate_preference
     from pchc_rsl.runners import load_checkpoint
+    from pchc_rsl.training.build import saved_config
 
     if os.path.exists(args.output) and not os.path.isdir(args.output):
         raise ValueError(f"--output {args.output} is a file; give a folder.")

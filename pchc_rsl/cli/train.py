@@ -75,12 +75,12 @@ def main(argv: list[str] | None = None) -> None:
     argv = sys.argv[1:] if argv is None else list(argv)
     args = build_parser(_task_help(argv)).parse_args(argv)
     _take_overrides_from_motion_files(args)
-    from pchc_rsl.run_folder import new_run_folder
+    from pchc_rsl.training.run_folder import new_run_folder
 
     try:
         cfg, config, notes = resolve(args)
         if args.show_config:
-            from pchc_rsl.overrides import format_config
+            from pchc_rsl.training.overrides import format_config
 
             print(format_config(cfg))
             return
@@ -99,19 +99,19 @@ def main(argv: list[str] | None = None) -> None:
 def resolve(args) -> tuple:
     """The TaskConfig to train (the task's, or the checkpoint's with --resume), flags and KEY=VALUE overrides
     applied and checked; the config dict checkpoints will carry; lines to tell the user."""
-    from pchc_rsl.build import restore_config, saved_config
-    from pchc_rsl.checks import check_task_config
     from pchc_rsl.configs import task_config
-    from pchc_rsl.overrides import apply_overrides, config_fields, set_value
     from pchc_rsl.preference import validate_preference
     from pchc_rsl.runners import load_checkpoint
+    from pchc_rsl.training.build import restore_config, saved_config
+    from pchc_rsl.training.checks import check_task_config
+    from pchc_rsl.training.overrides import apply_overrides, config_fields, set_value
 
     notes = []
     if args.resume and args.init_from:
         raise ValueError("give --resume (continue a run with its config) or --init-from (a new run starting from its "
                          "weights), not both.")
     if args.resume and os.path.isdir(args.resume):  # a run folder: its latest checkpoint, as legged_gym does
-        from pchc_rsl.run_folder import checkpoints_in
+        from pchc_rsl.training.run_folder import checkpoints_in
 
         found = checkpoints_in(args.resume)
         if not found:
@@ -190,10 +190,10 @@ def resolve(args) -> tuple:
 
 def train(cfg, config: dict, log_dir: str, args) -> None:
     """Build, train, and close with a summary; a failed run that saved no checkpoint leaves no folder behind."""
-    from pchc_rsl.build import make_runner
-    from pchc_rsl.run_folder import checkpoints_in, first_missing_folder, remove_if_unused
     from pchc_rsl.runners import NonFiniteTraining, TrainingInterrupted
-    from pchc_rsl.threads import apply_threads
+    from pchc_rsl.training.build import make_runner
+    from pchc_rsl.training.run_folder import checkpoints_in, first_missing_folder, remove_if_unused
+    from pchc_rsl.training.threads import apply_threads
     from pchc_rsl.utils.distributed import DistributedSetupError, world
 
     created = first_missing_folder(log_dir)
@@ -286,7 +286,7 @@ def _summary(cfg, log_dir: str, checkpoint: str, start: float, last: int | None 
     """Where everything is and what to run next, with the real paths; ``last``: the iteration the run meant to end
     at (an interrupted run continues with what is left)."""
     from pchc_rsl.evaluation import TASK_EVALUATION
-    from pchc_rsl.run_folder import checkpoints_in
+    from pchc_rsl.training.run_folder import checkpoints_in
 
     q = shlex.quote
     names = ", ".join(os.path.basename(p) for p in checkpoints_in(log_dir))
@@ -316,7 +316,7 @@ def _task_help(argv: list[str]) -> str:
     if known.task not in TASKS:
         return "Give --task TASK with --help to list that task's config."
     from pchc_rsl.configs import task_config
-    from pchc_rsl.overrides import format_config
+    from pchc_rsl.training.overrides import format_config
 
     return f"config of task {known.task} (set any with KEY=VALUE):\n" + format_config(task_config(known.task))
 

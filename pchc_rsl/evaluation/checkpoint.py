@@ -18,8 +18,8 @@ def evaluation_config(config: dict, preset: str | None, num_envs: int, seed: int
                       device: str = "cpu"):
     """A checkpoint's saved config as pchc-eval runs it: the task's evaluation preset with this push preset (None:
     the config as trained), then the ``KEY=VALUE`` overrides (a deployment shift, another push), lambda not held."""
-    from pchc_rsl.build import restore_config
-    from pchc_rsl.overrides import apply_overrides
+    from pchc_rsl.training.build import restore_config
+    from pchc_rsl.training.overrides import apply_overrides
 
     cfg = restore_config(config)
     if preset is not None:
@@ -31,7 +31,7 @@ def evaluation_config(config: dict, preset: str | None, num_envs: int, seed: int
 
 def loaded_policy(path: str, cfg, verbose: bool = False):
     """(runner, deterministic policy) for ``cfg`` with the checkpoint at ``path`` loaded."""
-    from pchc_rsl.build import make_runner
+    from pchc_rsl.training.build import make_runner
 
     runner = make_runner(cfg, verbose=verbose)
     runner.load(path)
@@ -40,8 +40,8 @@ def loaded_policy(path: str, cfg, verbose: bool = False):
 
 def task_config_of(path: str, task_prefix: str, tool: str, what: str) -> dict:
     """A checkpoint's saved config; exits with a one-line error naming ``tool`` if its task is not ``what``."""
-    from pchc_rsl.build import saved_config
     from pchc_rsl.runners import load_checkpoint
+    from pchc_rsl.training.build import saved_config
 
     config = saved_config(path, load_checkpoint(path))
     if not config["task"].startswith(task_prefix):
@@ -128,9 +128,9 @@ def load_policy(path: str, num_envs: int, seed: int, episode_length_s: float | N
     inference policy.
 
     Returns (task, env, policy); ValueError (one line) for a task without an evaluation preset or a bad override."""
-    from pchc_rsl.build import restore_config
-    from pchc_rsl.overrides import apply_overrides
     from pchc_rsl.runners import load_checkpoint
+    from pchc_rsl.training.build import restore_config
+    from pchc_rsl.training.overrides import apply_overrides
 
     config = load_checkpoint(path).get("config") or {}
     task = config.get("task")
