@@ -11,6 +11,7 @@ from pchc_rsl.configs.base import TaskConfig
 from pchc_rsl.configs.g1_training import g1_task_config
 from pchc_rsl.envs.g1_env import PushConfig, RandomizationConfig, RewardTerm
 from pchc_rsl.envs.g1_fall_recovery import FallRecoveryConfig
+from pchc_rsl.envs.warp_settings import WarpSettings
 from pchc_rsl.robots.g1.constants import FALL_RECOVERY_HELD_JOINTS, FALL_RECOVERY_JOINTS
 
 R = "pchc_rsl.envs.g1_rewards:"
@@ -54,6 +55,8 @@ def fall_recovery_env(fast: bool = False) -> FallRecoveryConfig:
         preference_concentration=0.5,  # more training preferences near the ends (docs/design.md)
         terminate_on_fall=True,
         assist_level_step=0.1,  # HoST: 20 of 200 N per step
+        # its robots lie, kick and get up for most of an episode: more room than walking (peak 61 rows, 14 contacts)
+        warp=WarpSettings(constraints_per_env=192, contacts_per_env=48),
     )
 
 

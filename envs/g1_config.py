@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from pchc_rsl.envs.warp_settings import WarpSettings
+
 
 @dataclass
 class RewardTerm:
@@ -59,6 +61,8 @@ class G1EnvConfig:
     physics: str = "mujoco"
     """The physics backend: "mujoco" (C MuJoCo on the CPU threads) or "warp" (MuJoCo Warp on the training device;
     the ``warp`` extra)."""
+    warp: WarpSettings = field(default_factory=WarpSettings)
+    """MuJoCo Warp's per-world buffers and solver iterations (``env.warp.constraints_per_env=...``)."""
     timestep: float = 0.002
     decimation: int = 10
     episode_length_s: float = 10.0

@@ -67,7 +67,7 @@ class G1Env(VecEnv):
         self.model = build_g1_model(cfg.joints, cfg.timestep, held_joints=tuple(cfg.held_joints))
         variants = model_variants(self.model, cfg.randomization, num_envs, self.rng)
         self.physics = make_physics(cfg.physics, variants, num_envs, cfg.decimation, cfg.num_threads, self.device,
-                                    with_body_forces=self.uses_body_forces)
+                                    with_body_forces=self.uses_body_forces, warp=cfg.warp)
         dev = self.device
         self.robot = RobotState(self.physics, self.model, cfg.joints)
         self.default_joint_pos = torch.tensor(default_joint_positions(cfg.joints), device=dev)

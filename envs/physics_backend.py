@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import mujoco
 
+from pchc_rsl.envs.warp_settings import WarpSettings
+
 BACKENDS = ("mujoco", "warp")
 
 
@@ -15,12 +17,13 @@ def physics_device(backend: str, device: str) -> str:
 
 
 def make_physics(backend: str, models: list[mujoco.MjModel], num_envs: int, substeps: int, num_threads: int,
-                 device: str, with_body_forces: bool):
-    """BatchedMuJoCo (threads: native threads stepping the batch) or WarpMuJoCo on ``device``."""
+                 device: str, with_body_forces: bool, warp: WarpSettings | None = None):
+    """BatchedMuJoCo (threads: native threads stepping the batch) or WarpMuJoCo on ``device`` with ``warp``'s
+    buffers and solver settings."""
     if backend == "warp":
         from pchc_rsl.envs.physics_warp import WarpMuJoCo
 
-        return WarpMuJoCo(models, num_envs, substeps, device, with_body_forces=with_body_forces)
+        return WarpMuJoCo(models, num_envs, substeps, device, with_body_forces=with_body_forces, settings=warp)
     from pchc_rsl.envs.physics import BatchedMuJoCo
 
     return BatchedMuJoCo(models, num_envs, substeps, num_threads, with_body_forces=with_body_forces)

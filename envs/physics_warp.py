@@ -10,6 +10,11 @@ for it (CUDA refuses to capture on the legacy default stream torch uses), and re
 Differences from C MuJoCo: Warp computes in float32, and it does not reset a diverged world by itself (a diverged
 world shows as non-finite or absurd velocities, which the env catches and resets). A reset runs a forward pass on
 every world (Warp has no per-world forward); it leaves the state of the other worlds untouched.
+
+Warp's buffers are fixed per world (``warp_settings.py``): what does not fit is dropped. After every physics step a
+small kernel folds the peaks (constraint rows, contacts, solver iterations), the steps that stopped at the solver's
+iteration limit and the overflow flags into a device record that training reads once per iteration; mujoco_warp's
+own printf per world and step is switched off.
 """
 
 from __future__ import annotations
@@ -22,6 +27,7 @@ import torch
 
 from pchc_rsl.envs.warp_device import (TESTED_MUJOCO_WARP, cuda_graph_problem, mujoco_warp_version_note,
                                        require_warp_cuda)
+from pchc_rsl.envs.warp_settings import WarpSettings
 
 try:
     import mujoco_warp as mjw
@@ -32,21 +38,51 @@ except ImportError as error:  # the optional extra
         f"{mujoco.__version__}). ({error})"
     ) from None
 
-SOLVER_ITERATIONS = 10
-LINESEARCH_ITERATIONS = 20
-CONTACTS_PER_ENV = 16
-CONSTRAINTS_PER_ENV = 64
-
 BUFFER_OVERFLOWS = {
-    "NEFC": "constraint rows (njmax): raise WarpMuJoCo's constraints_per_env",
-    "NJMAX_NNZ": "constraint Jacobian non-zeros: raise WarpMuJoCo's constraints_per_env",
-    "BROADPHASE": "broadphase collision pairs: raise WarpMuJoCo's contacts_per_env",
-    "NARROWPHASE": "contacts (naconmax): raise WarpMuJoCo's contacts_per_env",
-    "CCD": "convex collision contacts (naccdmax): raise WarpMuJoCo's contacts_per_env",
+    "NEFC": "constraint rows (njmax)",
+    "NJMAX_NNZ": "constraint Jacobian non-zeros (njmax * nv)",
+    "BROADPHASE": "broadphase collision pairs (naconmax)",
+    "NARROWPHASE": "contacts (naconmax)",
+    "CCD": "convex collision contacts (naccdmax)",
     "NVMAX": "active degrees of freedom (nvmax)",
 }
-"""Warp's overflow flags that mean results were dropped, and what to do; the solver's iteration limits are not
-errors (the step stops at the limit, as C MuJoCo does) and are reported as the largest iteration count instead."""
+"""Warp's overflow flags that mean results were dropped. The solver's iteration limits are not errors (the step
+stops at the limit, as C MuJoCo does): they are counted instead (``solver_limit_share``)."""
+
+SETTING_OF = {"NEFC": "constraints_per_env", "NJMAX_NNZ": "constraints_per_env", "BROADPHASE": "contacts_per_env",
+              "NARROWPHASE": "contacts_per_env", "CCD": "contacts_per_env"}
+"""The WarpSettings field (``env.warp.<field>``) that sizes each buffer."""
+
+SOLVER_LIMIT = wp.constant(int(mjw.OverflowType.ITERATIONS))
+LINESEARCH_LIMIT = wp.constant(int(mjw.OverflowType.LS_ITERATIONS))
+LIMIT_BITS = wp.constant(int(mjw.OverflowType.ITERATIONS) | int(mjw.OverflowType.LS_ITERATIONS))
+
+PEAK_ROWS, PEAK_ITERATIONS, PEAK_CONTACTS, PEAK_PAIRS, SOLVER_HITS, LINESEARCH_HITS, FLAGS = (
+    wp.constant(slot) for slot in range(7))
+"""Slots of the device record folded after every physics step (``_fold``)."""
+
+
+@wp.kernel
+def _fold(nefc: wp.array(dtype=int), niter: wp.array(dtype=int), nacon: wp.array(dtype=int),
+          ncollision: wp.array(dtype=int), overflow: wp.array(dtype=int), record: wp.array(dtype=int)):
+    """One thread per world, after each physics step: the peaks of constraint rows (counted also past the buffer),
+    solver iterations and contacts (all worlds); one count per world that stopped at the solver's or the line
+    search's iteration limit (the flag is cleared, so the next step counts again); the buffer overflow flags."""
+    world = wp.tid()
+    wp.atomic_max(record, PEAK_ROWS, nefc[world])
+    wp.atomic_max(record, PEAK_ITERATIONS, niter[world])
+    if world == 0:
+        wp.atomic_max(record, PEAK_CONTACTS, nacon[0])
+        wp.atomic_max(record, PEAK_PAIRS, ncollision[0])
+    flags = overflow[world]
+    if (flags & SOLVER_LIMIT) != 0:
+        wp.atomic_add(record, SOLVER_HITS, 1)
+    if (flags & LINESEARCH_LIMIT) != 0:
+        wp.atomic_add(record, LINESEARCH_HITS, 1)
+    if (flags & LIMIT_BITS) != 0:
+        overflow[world] = flags & ~LIMIT_BITS
+    if (flags & ~LIMIT_BITS) != 0:
+        wp.atomic_or(record, FLAGS, flags & ~LIMIT_BITS)
 
 
 class PhysicsOverflow(RuntimeError):
@@ -84,16 +120,16 @@ def differing_fields(variants: list[mujoco.MjModel]) -> list[str]:
 
 
 class WarpMuJoCo:
-    """N environments as N Warp worlds of one model (see the module docstring for randomised variants, solver
-    settings and buffer sizes)."""
+    """N environments as N Warp worlds of one model (see the module docstring for randomised variants, and
+    ``warp_settings.py`` for the buffer sizes and solver settings)."""
 
     def __init__(self, models: mujoco.MjModel | list[mujoco.MjModel], num_envs: int, substeps: int,
-                 device: str = "cuda:0", with_body_forces: bool = False, contacts_per_env: int = CONTACTS_PER_ENV,
-                 constraints_per_env: int = CONSTRAINTS_PER_ENV, solver_iterations: int = SOLVER_ITERATIONS,
-                 linesearch_iterations: int = LINESEARCH_ITERATIONS) -> None:
+                 device: str = "cuda:0", with_body_forces: bool = False, settings: WarpSettings | None = None) -> None:
         self.models = models if isinstance(models, list) else [models] * num_envs
         if len(self.models) != num_envs:
             raise ValueError(f"Got {len(self.models)} models for {num_envs} envs.")
+        self.settings = settings = settings or WarpSettings()
+        settings.check()
         self.model = self.models[0]
         self.num_envs, self.substeps = num_envs, substeps
         self.device = str(torch.device(device))
@@ -111,16 +147,21 @@ class WarpMuJoCo:
             batched = differing_fields(variants)
             self.batched_fields = batched
             self.wp_model = mjw.put_model(m, batch_sizes={name: len(variants) for name in batched})
-            self.wp_model.opt.iterations = solver_iterations
-            self.wp_model.opt.ls_iterations = linesearch_iterations
+            self.wp_model.opt.iterations = settings.solver_iterations
+            self.wp_model.opt.ls_iterations = settings.linesearch_iterations
+            # no printf per world and step when the solver stops at its limit (or a buffer overflows): the limit
+            # hits are counted and overflows raised instead. Read when the kernels are built, so set before any step
+            self.wp_model.opt.warn_overflow = 0
             for name in batched:
                 field = wp.to_torch(getattr(self.wp_model, name))
                 values = np.stack([getattr(v, name) for v in variants])
                 field.copy_(torch.from_numpy(values).reshape(field.shape))
-            self.data = mjw.make_data(m, nworld=num_envs, nconmax=contacts_per_env, njmax=constraints_per_env)
+            self.data = mjw.make_data(m, nworld=num_envs, nconmax=settings.contacts_per_env,
+                                      njmax=settings.constraints_per_env)
             self._sensor_records = wp.zeros((substeps, num_envs, m.nsensordata), dtype=float)
             self._qvel_records = wp.zeros((substeps, num_envs, m.nv), dtype=float)
             self._ctrl_substeps = wp.zeros((substeps, num_envs, m.nu), dtype=float)
+            self._record = wp.zeros(FLAGS + 1, dtype=int)
         d = self.data
         # torch views of Warp's arrays, made once (wp.to_torch builds a new tensor object at every call)
         self.qpos, self.qvel = wp.to_torch(d.qpos), wp.to_torch(d.qvel)
@@ -132,11 +173,10 @@ class WarpMuJoCo:
         self._reset_fields = [v for v in (wp.to_torch(f) for f in (d.act, d.qacc_warmstart, d.time)) if v.numel()]
         self._state_fields = [v for v in (wp.to_torch(f) for f in (d.qpos, d.qvel, d.act, d.qacc_warmstart))
                               if v.numel()]
-        self._overflow, self._nefc, self._niter = wp.to_torch(d.overflow), wp.to_torch(d.nefc), wp.to_torch(
-            d.solver_niter)
-        self._nacon = wp.to_torch(d.nacon)
-        self._peaks = torch.zeros(3, dtype=torch.long, device=self.device)
-        """Since the last overflow_report: largest constraint rows of a world, solver iterations, contacts (all)."""
+        self._record_view = wp.to_torch(self._record)
+        """Folded on the device after every physics step since the last report: the slots named above."""
+        self._world_steps = 0
+        """World-steps since the last report (host count: the share of limit hits needs no device read)."""
         self.diverged = torch.zeros(num_envs, dtype=torch.bool, device=self.device)
         """Always False: Warp does not reset a diverged world (the env's NaN and velocity checks catch it)."""
         self._graphs: dict[str, object] = {}
@@ -144,6 +184,8 @@ class WarpMuJoCo:
         self._capture_stream = None
         self._torch_streams: dict[int, object] = {}
         """Warp's handle of each torch stream seen, made once."""
+        self._started = False
+        """Whether the first reset (the start states) was checked against the buffers."""
         self.eager_reason = cuda_graph_problem(self.wp_device) if self.wp_device.is_cuda else None
         """Why a CUDA device runs the physics eagerly instead of as captured graphs (None: graphs)."""
         if self.wp_device.is_cuda:
@@ -154,12 +196,19 @@ class WarpMuJoCo:
                 logging.getLogger(__name__).warning("MuJoCo Warp runs eagerly on %s, without CUDA graphs: %s",
                                                     self.device, self.eager_reason)
         self._forward_and_record(slice(None))
+        self._record_view.zero_()  # the model's own pose (qpos0) is no state the env simulates
+
+    def _fold_record(self) -> None:
+        d = self.data
+        wp.launch(_fold, dim=self.num_envs, inputs=[d.nefc, d.solver_niter, d.nacon, d.ncollision],
+                  outputs=[d.overflow, self._record])
 
     def _substeps(self) -> None:
         d, n = self.data, self.num_envs
         for k in range(self.substeps):
             wp.copy(d.ctrl, self._ctrl_substeps, src_offset=k * n * self.model.nu, count=n * self.model.nu)
             mjw.step(self.wp_model, d)
+            self._fold_record()
             wp.copy(self._sensor_records, d.sensordata, dest_offset=k * n * self.model.nsensordata,
                     count=n * self.model.nsensordata)
             wp.copy(self._qvel_records, d.qvel, dest_offset=k * n * self.model.nv, count=n * self.model.nv)
@@ -170,31 +219,66 @@ class WarpMuJoCo:
         per_substep = self._ctrl_view
         per_substep.copy_(ctrl.permute(1, 0, 2) if ctrl.ndim == 3 else ctrl.unsqueeze(0).expand_as(per_substep))
         self._launch("substeps", self._substeps)
-        self._record_peaks()
-
-    def _record_peaks(self) -> None:
-        """Fold this step's sizes into the running peaks (on the device: nothing waits). Warp's overflow flags are
-        sticky per world until cleared, so they need no folding."""
-        now = torch.stack([self._nefc.max(), self._niter.max(), self._nacon.max()]).to(self._peaks.dtype)
-        torch.maximum(self._peaks, now, out=self._peaks)
+        self._world_steps += self.substeps * self.num_envs
 
     def overflow_report(self) -> dict[str, float]:
-        """Largest constraint rows of one world, solver iterations and contacts (all worlds) since the last call,
-        read once (one host sync); raise PhysicsOverflow when a buffer overflowed (results were dropped)."""
-        peaks = torch.cat([self._peaks, _or_all(self._overflow).view(1).to(self._peaks.dtype)]).tolist()
-        flags = peaks.pop()
-        self._peaks.zero_()
-        self._overflow.zero_()
-        report = {"max_constraint_rows": peaks[0], "constraint_rows_capacity": self.data.njmax,
-                  "max_solver_iterations": peaks[1], "solver_iterations_limit": self.wp_model.opt.iterations,
-                  "max_contacts": peaks[2], "contacts_capacity": self.data.naconmax}
-        dropped = [f"{name} ({advice})" for name, advice in BUFFER_OVERFLOWS.items()
-                   if flags & int(getattr(mjw.OverflowType, name, 0))]
-        if dropped:
-            raise PhysicsOverflow(
-                f"MuJoCo Warp overflowed its buffers ({'; '.join(dropped)}); peaks this iteration: {report}. The "
-                "physics dropped contacts or constraints, so training on it would be wrong.")
+        """Since the last call, read once (one host sync): the largest constraint rows of one world, solver
+        iterations and contacts (all worlds), and the share of world-steps whose solver or line search stopped at
+        its iteration limit (%); PhysicsOverflow when a buffer overflowed (results were dropped)."""
+        record = self._record_view.tolist()
+        self._record_view.zero_()
+        world_steps, self._world_steps = max(self._world_steps, 1), 0
+        report = {"max_constraint_rows": record[PEAK_ROWS], "constraint_rows_capacity": self.data.njmax,
+                  "max_solver_iterations": record[PEAK_ITERATIONS],
+                  "solver_iterations_limit": self.wp_model.opt.iterations,
+                  "solver_limit_share": 100.0 * record[SOLVER_HITS] / world_steps,
+                  "linesearch_limit_share": 100.0 * record[LINESEARCH_HITS] / world_steps,
+                  "max_contacts": record[PEAK_CONTACTS], "contacts_capacity": self.data.naconmax}
+        problem = self._overflow_problem(record)
+        if problem:
+            raise PhysicsOverflow(f"{problem}; peaks since the last report: {report}. The physics dropped contacts "
+                                  "or constraint rows, so training on it would be wrong.")
         return {key: float(value) for key, value in report.items()}
+
+    def _overflow_problem(self, record: list[int]) -> str | None:
+        """What overflowed and the size to set (``env.warp.<field>=...``), or None. Warp counts constraint rows and
+        contacts also past its buffers, so the sizes needed are known."""
+        flags = record[FLAGS]
+        if record[PEAK_ROWS] > self.data.njmax:
+            flags |= int(mjw.OverflowType.NEFC)  # a forward pass (a reset) counts the rows but sets no flag
+        if max(record[PEAK_CONTACTS], record[PEAK_PAIRS]) > self.data.naconmax:
+            flags |= int(mjw.OverflowType.NARROWPHASE)
+        names = [name for name in BUFFER_OVERFLOWS if flags & int(getattr(mjw.OverflowType, name, 0))]
+        if not names:
+            return None
+        rows = record[PEAK_ROWS]
+        contacts = -(-max(record[PEAK_CONTACTS], record[PEAK_PAIRS]) // self.num_envs)
+        needed = {"constraints_per_env": (self.settings.constraints_per_env, rows, f"{rows} rows in one world"),
+                  "contacts_per_env": (self.settings.contacts_per_env, contacts, f"{contacts} per world on average")}
+        advice = []
+        for setting in dict.fromkeys(SETTING_OF.get(name) for name in names if name in SETTING_OF):
+            now, peak, said = needed[setting]
+            advice.append(f"env.warp.{setting}={max(2 * now, _round_up(2 * peak))} (now {now}; needed {said})")
+        buffers = ", ".join(f"{BUFFER_OVERFLOWS[name]} [{name}]" for name in names)
+        return (f"MuJoCo Warp overflowed its buffers of {buffers}" +
+                (f"; set {' and '.join(advice)}" if advice else ""))
+
+    def check_start(self, qpos: torch.Tensor, qvel: torch.Tensor) -> None:
+        """Refuse buffers too small for the task's start (at the first reset, one host read): the rows and contacts
+        the start states need now (Warp's own count, every world) and once one of them has settled on the floor
+        (C MuJoCo, 0.3 s holding its pose). ValueError in one line naming the setting and the size needed."""
+        record = self._record_view.tolist()
+        rows, contacts = settled_needs(self.models[0], qpos[0].double().cpu().numpy(), qvel[0].double().cpu().numpy())
+        needs = {"constraints_per_env": (max(rows, record[PEAK_ROWS]), "constraint rows in one world"),
+                 "contacts_per_env": (max(contacts, -(-max(record[PEAK_CONTACTS], record[PEAK_PAIRS]) //
+                                                      self.num_envs)), "contacts in one world")}
+        for setting, (needed, what) in needs.items():
+            given = getattr(self.settings, setting)
+            if needed > given:
+                raise ValueError(f"env.warp.{setting}={given} is too small for this task: one robot at its start "
+                                 f"needs {needed} {what}; set env.warp.{setting} to at least {needed} (robots lying "
+                                 f"on the floor need about twice a standing one's; the default is "
+                                 f"{getattr(WarpSettings(), setting)}).")
 
     def _launch(self, name: str, work_fn) -> None:
         """Run ``work_fn`` (Warp launches only): eagerly on the CPU; on CUDA captured once as a graph named ``name``
@@ -248,20 +332,39 @@ class WarpMuJoCo:
         for values in self._reset_fields:
             values[ids] = 0.0
         self._forward_and_record(ids)
+        if not self._started:  # the env's first reset: its start states
+            self._started = True
+            self.check_start(qpos, qvel)
+
+    def _forward(self) -> None:
+        mjw.forward(self.wp_model, self.data)
+        self._fold_record()
 
     def _forward_and_record(self, ids) -> None:
         """mjw.forward on every world (the state stays), then every substep slot of these worlds' records holds
         their current sensors and joint velocities."""
-        self._launch("forward", lambda: mjw.forward(self.wp_model, self.data))
+        self._launch("forward", self._forward)
         self.substep_sensors[ids] = self._sensordata[ids].unsqueeze(1)
         self.substep_qvel[ids] = self.qvel[ids].unsqueeze(1)
 
 
-def _or_all(flags: torch.Tensor) -> torch.Tensor:
-    """Bitwise OR of every element (torch has no OR reduction): OR of each bit's any()."""
-    bits = torch.arange(flags.element_size() * 8 - 1, device=flags.device, dtype=flags.dtype)
-    present = ((flags.unsqueeze(-1) >> bits) & 1).amax(0)
-    return (present << bits).sum()
+def settled_needs(model: mujoco.MjModel, qpos: np.ndarray, qvel: np.ndarray, seconds: float = 0.3) -> tuple[int, int]:
+    """The most constraint rows and contacts one robot needs from (qpos, qvel) until it has settled: C MuJoCo,
+    every position actuator holding its joint where it starts (a standing start lands on its feet, a prone one on
+    its front)."""
+    data = mujoco.MjData(model)
+    data.qpos[:], data.qvel[:] = qpos, qvel
+    joints = model.actuator_trnid[:, 0]
+    data.ctrl[:] = qpos[model.jnt_qposadr[joints]]
+    rows = contacts = 0
+    for _ in range(max(1, round(seconds / model.opt.timestep))):
+        mujoco.mj_step(model, data)
+        rows, contacts = max(rows, data.nefc), max(contacts, data.ncon)
+    return rows, contacts
+
+
+def _round_up(value: int, to: int = 16) -> int:
+    return -(-value // to) * to
 
 
 def _variants(models: list[mujoco.MjModel]) -> list[mujoco.MjModel]:

@@ -4,6 +4,8 @@ Warp's CPU device compiles its kernels on first use (about 30-45 s here, then ca
 slowly, so the check is small: 4 envs, 20 policy steps, with randomised models, a push and a mid-episode reset.
 """
 
+import math
+
 import pytest
 import torch
 from test_g1_env import make_walk_env, pytestmark  # noqa: F401  (skip without the G1 model)
@@ -42,32 +44,108 @@ def test_warp_backend_follows_c_mujoco_through_pushes_resets_and_randomisation()
         torch.testing.assert_close(reward_w, reward_c, atol=2e-3, rtol=1e-3)
     assert (c.pushes.max_deviation[[0, 2, 3]] > 0).all()  # the pushes happened
     assert c.episode_length_buf[1] == 10 and w.episode_length_buf[1] == 10  # and the reset
-    # with Warp's solver at 10 / 20 iterations (C MuJoCo at 100 / 50), inside the buffers sized for the G1
-    from pchc_rsl.envs.physics_warp import CONSTRAINTS_PER_ENV
-
+    # with Warp's solver at 10 / 20 iterations (C MuJoCo at 100 / 50), inside the task's buffers
     report = w.physics_report()
     assert w.physics.wp_model.opt.iterations == 10 and w.physics.wp_model.opt.ls_iterations == 20
     assert c.physics.models[0].opt.iterations == 100
-    assert 0 < report["max_constraint_rows"] <= CONSTRAINTS_PER_ENV and 0 < report["max_solver_iterations"] <= 10
+    assert 0 < report["max_constraint_rows"] <= w.cfg.warp.constraints_per_env
+    assert 0 < report["max_solver_iterations"] <= 10 and 0 <= report["solver_limit_share"] <= 100
     assert report["max_contacts"] > 0
     assert w.physics_report()["max_constraint_rows"] == 0  # the peaks start over at every report
 
 
-def test_an_overflowing_constraint_buffer_stops_with_what_to_raise():
-    """Standing robots need about 30 constraint rows each; 4 overflow, and the report says which buffer."""
-    from pchc_rsl.envs.physics_warp import PhysicsOverflow, WarpMuJoCo
-    from pchc_rsl.robots.g1.constants import WALK_JOINTS
+def g1(joints, held=(), timestep=0.005):
+    """A G1 model and its standing pose (pelvis 0.76 m, the default joint positions)."""
     from pchc_rsl.robots.g1.model import build_g1_model, default_joint_positions
 
-    model = build_g1_model(list(WALK_JOINTS), 0.005)
-    physics = WarpMuJoCo(model, 2, 2, device="cpu", constraints_per_env=4)
-    qpos = torch.zeros(2, model.nq, dtype=torch.float64)
-    qpos[:, 2], qpos[:, 3] = 0.76, 1.0
-    qpos[:, 7:] = torch.tensor(default_joint_positions(list(WALK_JOINTS)), dtype=torch.float64)
-    physics.set_qpos_qvel(torch.arange(2), qpos, torch.zeros(2, model.nv, dtype=torch.float64))
-    for _ in range(10):  # 0.1 s: the feet, a few mm above the floor at the start, have landed
-        physics.step(qpos[:, 7:].float())
-    with pytest.raises(PhysicsOverflow, match="NEFC .*constraints_per_env"):
+    model = build_g1_model(list(joints), timestep, held_joints=tuple(held))
+    standing = torch.tensor(model.qpos_spring, dtype=torch.float64)
+    standing[:7] = torch.tensor([0.0, 0.0, 0.76, 1.0, 0.0, 0.0, 0.0], dtype=torch.float64)
+    actuated = model.jnt_qposadr[model.actuator_trnid[:, 0]]
+    standing[actuated] = torch.tensor(default_joint_positions(list(joints)), dtype=torch.float64)
+    return model, standing
+
+
+def prone(standing: torch.Tensor) -> torch.Tensor:
+    """The same pose lying face down on the floor (pitch +90 deg, pelvis 0.12 m up)."""
+    lying = standing.clone()
+    lying[2] = 0.12
+    lying[3:7] = torch.tensor([math.cos(math.pi / 4), 0.0, math.sin(math.pi / 4), 0.0], dtype=torch.float64)
+    return lying
+
+
+def test_prone_robots_overflow_64_constraint_rows_and_fit_the_task_buffers():
+    """A G1 lying face down needs more than the 64 rows per world Warp was once given: it overflows them, with the
+    setting and the size to give; the fall-recovery task's buffers hold it. C MuJoCo, counting the same robot, also
+    needs more than 64."""
+    import mujoco
+
+    from pchc_rsl.configs import task_config
+    from pchc_rsl.envs.physics_warp import PhysicsOverflow, WarpMuJoCo
+    from pchc_rsl.envs.warp_settings import WarpSettings
+    from pchc_rsl.robots.g1.constants import FALL_RECOVERY_HELD_JOINTS, FALL_RECOVERY_JOINTS
+
+    model, standing = g1(FALL_RECOVERY_JOINTS, FALL_RECOVERY_HELD_JOINTS)
+    lying = prone(standing)
+    hold = lying[model.jnt_qposadr[model.actuator_trnid[:, 0]]]
+    data = mujoco.MjData(model)
+    data.qpos[:], data.ctrl[:] = lying.numpy(), hold.numpy()
+    c_rows = 0
+    for _ in range(80):  # 0.4 s: it lands and comes to rest
+        mujoco.mj_step(model, data)
+        c_rows = max(c_rows, data.nefc)
+    assert c_rows > 64
+
+    task = task_config("g1-fall-recovery").env.warp
+    for settings, overflows in ((WarpSettings(constraints_per_env=64), True), (task, False)):
+        physics = WarpMuJoCo(model, 2, 4, device="cpu", settings=settings)
+        qvel = torch.zeros(2, model.nv, dtype=torch.float64)
+        physics.set_qpos_qvel(torch.arange(2), standing.repeat(2, 1), qvel)  # the start: a standing robot fits 64
+        physics.set_qpos_qvel(torch.arange(2), lying.repeat(2, 1), qvel)
+        for _ in range(20):
+            physics.step(hold.float().repeat(2, 1))
+        if overflows:
+            with pytest.raises(PhysicsOverflow, match=r"set env\.warp\.constraints_per_env=1\d\d \(now 64; needed "
+                                                       r"(6[5-9]|[7-9]\d) rows in one world\)"):
+                physics.overflow_report()
+        else:
+            report = physics.overflow_report()
+            assert 64 < report["max_constraint_rows"] <= task.constraints_per_env
+
+
+def test_buffers_too_small_for_the_start_are_refused_in_one_line():
+    """A standing walker needs about 32 rows (4 contacts per foot, 4 rows each): 8 are refused when the env is
+    built, naming the setting and the size needed; a size that is no size, at once."""
+    from test_g1_env import make_walk_env
+
+    from pchc_rsl.envs.warp_settings import WarpSettings
+
+    with pytest.raises(ValueError) as refused:
+        make_walk_env(num_envs=2, physics="warp", warp=WarpSettings(constraints_per_env=8))
+    message = str(refused.value)
+    assert "\n" not in message and "env.warp.constraints_per_env=8 is too small" in message
+    needed = int(message.split("set env.warp.constraints_per_env to at least ")[1].split(" ")[0])
+    assert 16 <= needed <= 64
+    with pytest.raises(ValueError, match="env.warp.contacts_per_env must be a whole number >= 1, got 0"):
+        make_walk_env(num_envs=2, physics="warp", warp=WarpSettings(contacts_per_env=0))
+
+
+def test_an_overflowing_constraint_buffer_stops_with_what_to_set():
+    """Robots landing need about 30 constraint rows each: a buffer of 4 overflows, and the report names the buffer,
+    the setting and a size for it. (They start 0.5 m up, so the start-up check, which refuses 4 for robots on the
+    floor, sees none land.)"""
+    from pchc_rsl.envs.physics_warp import PhysicsOverflow, WarpMuJoCo
+    from pchc_rsl.envs.warp_settings import WarpSettings
+    from pchc_rsl.robots.g1.constants import WALK_JOINTS
+
+    model, standing = g1(WALK_JOINTS)
+    standing[2] += 0.5
+    physics = WarpMuJoCo(model, 2, 4, device="cpu", settings=WarpSettings(constraints_per_env=4))
+    physics.set_qpos_qvel(torch.arange(2), standing.repeat(2, 1), torch.zeros(2, model.nv, dtype=torch.float64))
+    for _ in range(20):  # 0.4 s: they have landed
+        physics.step(standing[7:].float().repeat(2, 1))
+    with pytest.raises(PhysicsOverflow, match=r"constraint rows \(njmax\) \[NEFC\]; set "
+                                               r"env\.warp\.constraints_per_env=\d+ \(now 4; needed \d+ rows"):
         physics.overflow_report()
 
 
@@ -216,3 +294,24 @@ def test_cuda_graph_is_captured_and_replayed_on_its_own_stream_ordered_with_torc
     physics.step(ctrl)
     assert calls == [("wait", "own", "torch"), ("on", "own"), ("launch", "forward graph", "own"), ("wait", "torch", "own"),
                      ("wait", "own", "torch"), ("on", "own"), ("launch", "graph", "own"), ("wait", "torch", "own")]
+
+
+def test_solver_limit_hits_are_counted_on_the_device_and_never_printed(capfd):
+    """One solver iteration cannot converge with feet on the floor: each world-step then ends at the limit. mujoco_warp
+    would print a line per world and step; here nothing is printed and the share of hits is reported."""
+    from pchc_rsl.envs.physics_warp import WarpMuJoCo
+    from pchc_rsl.envs.warp_settings import WarpSettings
+    from pchc_rsl.robots.g1.constants import WALK_JOINTS
+
+    model, standing = g1(WALK_JOINTS)
+    physics = WarpMuJoCo(model, 2, 4, device="cpu", settings=WarpSettings(solver_iterations=1))
+    physics.set_qpos_qvel(torch.arange(2), standing.repeat(2, 1), torch.zeros(2, model.nv, dtype=torch.float64))
+    physics.overflow_report()
+    for _ in range(5):
+        physics.step(standing[7:].float().repeat(2, 1))
+    report = physics.overflow_report()
+    out, err = capfd.readouterr()
+    assert "limit reached" not in out + err
+    assert report["solver_iterations_limit"] == 1 and report["max_solver_iterations"] == 1
+    assert report["solver_limit_share"] > 20  # the feet land in the first steps; from then on, every step
+    assert physics.overflow_report()["solver_limit_share"] == 0  # counted since the last report only
