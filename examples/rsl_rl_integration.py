@@ -104,7 +104,7 @@ def main(argv: list[str] | None = None) -> dict[str, list[float]]:
         ends[name] = final_position(runner, env, preference).tolist()
         print(f"lambda = {name}: ends at ({ends[name][0]:.2f}, {ends[name][1]:.2f})")
     if args.onnx:
-        from pchc_rsl.export import export_onnx
+        from pchc_rsl.export.onnx_export import export_onnx
 
         export_onnx(runner.alg.actor, args.onnx)  # inputs "obs" and "preference"; checked against onnxruntime
         print(f"exported {args.onnx}")

@@ -7,7 +7,7 @@ import torch
 from pchc_rsl.cli import export_onnx as export_cli
 from pchc_rsl.cli import train as train_cli
 from pchc_rsl.configs import task_config
-from pchc_rsl.export import OnnxPolicy
+from pchc_rsl.export.onnx_policy import OnnxPolicy
 from pchc_rsl.training.build import make_runner
 
 

@@ -48,7 +48,7 @@ def steering_onnx(tmp_path_factory) -> str:
     config's ranges): what the steering needs to be tested, whatever the network learned."""
     import onnx
 
-    from pchc_rsl.export import METADATA_KEY
+    from pchc_rsl.export.metadata import METADATA_KEY
 
     model = onnx.load(WALK_ONNX)
     entry = next(p for p in model.metadata_props if p.key == METADATA_KEY)
@@ -65,7 +65,7 @@ def walker_with_ranges(folder, ranges: dict | None) -> str:
     exported before the key existed)."""
     import onnx
 
-    from pchc_rsl.export import METADATA_KEY
+    from pchc_rsl.export.metadata import METADATA_KEY
 
     model = onnx.load(WALK_ONNX)
     entry = next(p for p in model.metadata_props if p.key == METADATA_KEY)

@@ -26,7 +26,7 @@ def test_the_rsl_rl_example_reaches_each_goal_at_its_preference(tmp_path):
     # the exported file runs with a preference input of its own
     import numpy as np
 
-    from pchc_rsl.export import OnnxPolicy
+    from pchc_rsl.export.onnx_policy import OnnxPolicy
 
     policy = OnnxPolicy(str(onnx))
     actions = policy(np.zeros((3, policy.obs_dim), np.float32), np.array([[1.0, 0.0], [0.5, 0.5], [0.0, 1.0]]))

@@ -2,7 +2,8 @@ import numpy as np
 import pytest
 import torch
 
-from pchc_rsl.export import OnnxPolicy, export_onnx
+from pchc_rsl.export.onnx_export import export_onnx
+from pchc_rsl.export.onnx_policy import OnnxPolicy
 from pchc_rsl.modules import GatedMoEActor, PCIActor, PreferenceMLPModel
 from test_models import GAUSSIAN, GROUPS, make_obs
 
@@ -117,7 +118,7 @@ def test_a_g1_policy_file_describes_itself_for_a_deploy(tmp_path):
     if not g1_available():
         pytest.skip("G1 model unavailable (set MENAGERIE_ROOT)")
     from pchc_rsl.cli import export_onnx as export_cli
-    from pchc_rsl.export import OnnxPolicy
+    from pchc_rsl.export.onnx_policy import OnnxPolicy
     from pchc_rsl.robots.g1.constants import WALK_JOINTS, joint_gains, joint_motor
     from pchc_rsl.robots.g1.model import default_joint_positions
 

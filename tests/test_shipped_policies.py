@@ -21,7 +21,7 @@ def shipped(name: str) -> str:
 
 @pytest.mark.parametrize("name", ["g1_walk", "g1_fall_recovery"])
 def test_shipped_files_are_small_and_the_onnx_is_the_same_policy(name):
-    from pchc_rsl.export import check_onnx_against_torch
+    from pchc_rsl.export.onnx_export import check_onnx_against_torch
     from pchc_rsl.runners import load_checkpoint
     from pchc_rsl.training.build import make_runner, restore_config, saved_config
 

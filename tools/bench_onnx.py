@@ -15,7 +15,8 @@ import numpy as np
 import torch
 from tensordict import TensorDict
 
-from pchc_rsl.export import OnnxPolicy, export_onnx
+from pchc_rsl.export.onnx_export import export_onnx
+from pchc_rsl.export.onnx_policy import OnnxPolicy
 from pchc_rsl.modules import GatedMoEActor, PCIActor, PreferenceMLPModel
 
 

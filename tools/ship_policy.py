@@ -17,8 +17,8 @@ import tempfile
 
 import torch
 
-from pchc_rsl.export import export_checkpoint
 from pchc_rsl.runners.checkpoint import load_checkpoint, release_checkpoint
+from pchc_rsl.training.checkpoint_export import export_checkpoint
 from pchc_rsl.utils.files import atomic_write
 
 

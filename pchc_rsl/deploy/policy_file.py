@@ -5,13 +5,12 @@ from __future__ import annotations
 
 import json
 
-METADATA_KEY = "pchc"  # pchc_rsl.export.METADATA_KEY, repeated here to keep torch out of this module
+from pchc_rsl.export.metadata import METADATA_KEY
+from pchc_rsl.export.onnx_session import open_onnx_session
 
 
 def read_metadata(path: str) -> dict:
     """The deploy metadata of an ONNX policy file; ValueError in one line for anything else."""
-    from pchc_rsl.onnx_session import open_onnx_session
-
     session = open_onnx_session(path)
     text = session.get_modelmeta().custom_metadata_map.get(METADATA_KEY)
     if text is None:

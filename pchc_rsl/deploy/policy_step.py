@@ -9,7 +9,7 @@ import numpy as np
 from pchc_rsl.deploy.g1_motors import JointMap
 from pchc_rsl.deploy.live_controls import command_ranges_of
 from pchc_rsl.deploy.robot_io import RobotState
-from pchc_rsl.export import OnnxPolicy
+from pchc_rsl.export.onnx_policy import OnnxPolicy
 
 FRAME_QUANTITIES = {"base_ang_vel", "projected_gravity", "joint_pos_minus_default", "joint_vel", "last_action",
                     "action_scale_eta", "velocity_command"}

@@ -14,7 +14,7 @@ from tensordict import TensorDict
 from rsl_rl.env import VecEnv
 from rsl_rl.runners import OnPolicyRunner
 
-from pchc_rsl.export import export_onnx
+from pchc_rsl.export.onnx_export import export_onnx
 from pchc_rsl.runners.checkpoint import load_checkpoint
 from pchc_rsl.runners.iteration_log import IterationLogger
 from pchc_rsl.utils.distributed import init_process_group, shutdown_process_group, world
