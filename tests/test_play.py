@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 import torch
 
-from pchc_rsl import passive_viewer
 from pchc_rsl.cli import play
 from pchc_rsl.evaluation import TOY_STEPS_PER_SECOND, load_policy
+from pchc_rsl.viewers import native
 
 imageio = pytest.importorskip("imageio")
 
@@ -142,16 +142,17 @@ def test_rendering_unavailable_says_which_mujoco_gl_to_try(walk_checkpoint, tmp_
 # ---------------------------------------------------------------------------- the viewer
 def test_keys_move_lambda_push_and_reset(walk_checkpoint):
     _, env, policy = load_policy(walk_checkpoint, 1, 0, 1e6, 0)
-    controls = passive_viewer.LiveControls(env)
+    controls = native.LiveControls(env)
     with torch.inference_mode():
         env.set_preference(torch.tensor([0.5, 0.5]))
-        for key in (passive_viewer.RIGHT, passive_viewer.RIGHT, passive_viewer.LEFT, passive_viewer.RIGHT):
+        for key in (native.RIGHT, native.RIGHT, native.LEFT, native.RIGHT):
             controls.on_key(key)
         controls.on_key(ord("A"))  # not ours: ignored
-        from pchc_rsl.steering import COMMAND_COMPONENTS, trained_ranges
+        from pchc_rsl.export.metadata import COMMAND_COMPONENTS
+        from pchc_rsl.viewers.steering import trained_ranges
 
         before = env.commands[0].clone()
-        for key in (passive_viewer.UP, passive_viewer.UP, passive_viewer.PAGE_UP, passive_viewer.HOME):
+        for key in (native.UP, native.UP, native.PAGE_UP, native.HOME):
             controls.on_key(key)
         assert controls.apply()
         assert env.preference[0].tolist() == pytest.approx([0.3, 0.7])
@@ -161,7 +162,7 @@ def test_keys_move_lambda_push_and_reset(walk_checkpoint):
             expected = min(max(float(before[k]) + delta, ranges[key][0]), ranges[key][1]) if key in ranges else before[k]
             assert float(env.commands[0, k]) == pytest.approx(float(expected), abs=1e-3)
         for _ in range(10):
-            controls.on_key(passive_viewer.RIGHT)
+            controls.on_key(native.RIGHT)
         controls.apply()
         assert env.preference[0].tolist() == pytest.approx([0.0, 1.0])  # stays on the simplex
         obs = env.get_observations()
@@ -169,14 +170,14 @@ def test_keys_move_lambda_push_and_reset(walk_checkpoint):
 
         obs, *_ = env.step(policy(obs))
         assert not env.pushes.active[0]  # --push-every 0: no push by itself
-        controls.on_key(passive_viewer.SPACE)
+        controls.on_key(native.SPACE)
         controls.apply()
         before = env.physics.qvel[0, :2].numpy().copy()
         env.step(policy(env.get_observations()))
         assert env.pushes.active[0]
         assert np.linalg.norm(env.physics.qvel[0, :2].numpy() - before) > 0.2  # the pelvis was thrown
 
-        controls.on_key(passive_viewer.BACKSPACE)
+        controls.on_key(native.BACKSPACE)
         controls.apply()
         assert int(env.episode_length_buf[0]) == 0 and not env.pushes.active[0]
 
@@ -272,8 +273,8 @@ def test_a_preference_of_the_wrong_length_names_the_objectives(toy_checkpoint, t
 def test_a_fixed_preference_checkpoint_is_shown_at_its_preference(tmp_path, monkeypatch):
     """A policy trained at one lambda means nothing at the others: without --preference it is shown at the one it
     was trained at; a --preference given is shown as asked."""
-    from pchc_rsl import recording
     from pchc_rsl.cli import train
+    from pchc_rsl.viewers import recording
 
     train.main(["--task", "toy", "--num-envs", "8", "--max-iterations", "1", "--fixed-preference", "0.2,0.8",
                 "--log-dir", str(tmp_path / "fixed")])

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pchc_rsl.web_viewer import WebViewerUnavailable, check_port, preference_from_sliders
+from pchc_rsl.viewers.web import WebViewerUnavailable, check_port, preference_from_sliders
 
 WALK = "policies/g1_walk.pt"
 
@@ -58,7 +58,7 @@ def test_a_port_in_use_is_named_with_a_free_one():
 def test_a_missing_viser_names_the_extra(monkeypatch):
     import builtins
 
-    from pchc_rsl import web_viewer
+    from pchc_rsl.viewers import web
 
     real_import = builtins.__import__
 
@@ -69,7 +69,7 @@ def test_a_missing_viser_names_the_extra(monkeypatch):
 
     monkeypatch.setattr(builtins, "__import__", no_viser)
     with pytest.raises(WebViewerUnavailable, match=r'pip install -e "\.\[web\]"'):
-        web_viewer.require_viser()
+        web.require_viser()
 
 
 @pytest.fixture(scope="module")
@@ -79,7 +79,7 @@ def walk_viewer():
         pytest.skip("G1 model unavailable (set MENAGERIE_ROOT)")
     from pchc_rsl.evaluation import load_policy
     from pchc_rsl.evaluation import TASK_EVALUATION
-    from pchc_rsl.web_viewer import WebViewer
+    from pchc_rsl.viewers.web import WebViewer
 
     task, env, policy = load_policy(WALK, 1, 0, 1e6, 0.0)  # push only when asked
     viewer = WebViewer(env, policy, [0.5, 0.5], port=free_port(), pushes=TASK_EVALUATION[task].pushes)
@@ -158,7 +158,7 @@ def test_the_panels_show_rewards_and_gait(walk_viewer):
 def test_the_toy_gets_its_plot(tmp_path):
     from pchc_rsl.cli import train
     from pchc_rsl.evaluation import load_policy
-    from pchc_rsl.web_viewer import WebViewer
+    from pchc_rsl.viewers.web import WebViewer
 
     train.main(["--task", "toy", "--num-envs", "2", "--max-iterations", "1", "--log-dir", str(tmp_path / "toy")])
     _, env, policy = load_policy(str(tmp_path / "toy" / "model_0.pt"), 1, 0, None, None)

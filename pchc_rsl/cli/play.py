@@ -49,7 +49,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> None:
-    from pchc_rsl.recording import has_display
+    from pchc_rsl.viewers.recording import has_display
 
     args = build_parser().parse_intermixed_args(argv)  # KEY=VALUE words may follow the options
     try:
@@ -66,11 +66,11 @@ def main(argv: list[str] | None = None) -> None:
     if args.video is not None and not has_display():
         os.environ.setdefault("MUJOCO_GL", "egl")  # headless offscreen rendering; read when mujoco is imported
     from pchc_rsl.envs.g1_render import RenderingUnavailable
-    from pchc_rsl.web_viewer import WebViewerUnavailable
+    from pchc_rsl.viewers.web import WebViewerUnavailable
 
     try:
         if args.video:
-            from pchc_rsl.recording import record_checkpoint_video
+            from pchc_rsl.viewers.recording import record_checkpoint_video
 
             path = record_checkpoint_video(args.checkpoint, preferences, args.video, args)
             print(f"pchc-play: wrote {path}")
@@ -118,7 +118,7 @@ def parse_preferences(texts: list[str] | None, default: list[tuple[float, ...]])
 
 
 def check_arguments(args) -> None:
-    from pchc_rsl.video import check_frame_size, check_video_path
+    from pchc_rsl.viewers.video import check_frame_size, check_video_path
 
     if args.video is not None:
         check_video_path(args.video)
@@ -138,7 +138,7 @@ def check_arguments(args) -> None:
 def watch_in_browser(checkpoint: str, preference, args) -> None:
     """The policy in a page served by viser on --host:--port, until Ctrl-C (or --seconds of simulation)."""
     from pchc_rsl.evaluation import TASK_EVALUATION, check_objectives, load_policy
-    from pchc_rsl.web_viewer import DEFAULT_HOST, DEFAULT_PORT, WebViewer, check_port, require_viser
+    from pchc_rsl.viewers.web import DEFAULT_HOST, DEFAULT_PORT, WebViewer, check_port, require_viser
 
     host, port = args.host or DEFAULT_HOST, args.port or DEFAULT_PORT
     require_viser()
@@ -161,7 +161,7 @@ def watch_in_browser(checkpoint: str, preference, args) -> None:
 def watch_checkpoint(checkpoint: str, preference, args) -> None:
     """The policy in MuJoCo's window until it is closed (or --seconds of simulation)."""
     from pchc_rsl.evaluation import check_objectives, load_policy
-    from pchc_rsl.passive_viewer import run_viewer
+    from pchc_rsl.viewers.native import run_viewer
 
     task, env, policy = load_policy(checkpoint, 1, args.seed, 1e6, args.push_every, args.overrides)  # no time-outs while watching
     if task == "toy":

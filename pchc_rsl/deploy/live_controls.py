@@ -10,7 +10,7 @@ import threading
 
 import numpy as np
 
-from pchc_rsl.steering import COMMAND_COMPONENTS
+from pchc_rsl.export.metadata import COMMAND_COMPONENTS
 
 PREFERENCE_STEP = 0.1
 SPEED_STEP = 0.1

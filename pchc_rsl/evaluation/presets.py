@@ -137,7 +137,7 @@ def evaluation_preset(cfg, push_preset: str, evaluation: TaskEvaluation):
         env.curriculum = False
     if evaluation.command is not None:  # every episode: training's standing episodes would dilute the gait figures
         vx, vy, wz = evaluation.command
-        env.steering_ranges = dict(env.command_ranges)  # what pchc-play's controls may still set (pchc_rsl.steering)
+        env.steering_ranges = dict(env.command_ranges)  # what pchc-play may still steer (pchc_rsl.viewers.steering)
         env.command_ranges = {"lin_vel_x": (vx, vx), "lin_vel_y": (vy, vy), "ang_vel_z": (wz, wz)}
         env.zero_command_probability = 0.0
     return cfg

@@ -12,7 +12,7 @@ import threading
 import time
 from collections import deque
 
-from pchc_rsl.steering import set_command, trained_ranges
+from pchc_rsl.viewers.steering import set_command, trained_ranges
 
 LAMBDA_STEP = 0.1
 """How far one key press moves lambda along the simplex."""
@@ -91,7 +91,7 @@ def run_viewer(env, policy, preference, seconds: float | None) -> int:
     import torch
 
     from pchc_rsl.envs.g1_render import add_push_arrow, visual_model
-    from pchc_rsl.live_metrics import live_metrics, preference_row
+    from pchc_rsl.viewers.overlay import live_metrics, preference_row
 
     model = visual_model(env)
     data = mujoco.MjData(model)

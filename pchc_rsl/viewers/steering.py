@@ -4,9 +4,8 @@ preset fixed the command); a component trained at (0, 0) is not steered."""
 
 from __future__ import annotations
 
-COMMAND_COMPONENTS = ("lin_vel_x", "lin_vel_y", "ang_vel_z")
-"""The walking command's components, as the training config's ``command_ranges`` and the ONNX metadata name them
-(pchc-play and pchc-deploy share them; this module imports nothing, so the deploy stays free of torch)."""
+from pchc_rsl.export.metadata import COMMAND_COMPONENTS
+
 COMMAND_LABELS = {"lin_vel_x": "forward speed (m/s)", "lin_vel_y": "lateral speed (m/s)",
                   "ang_vel_z": "yaw rate (rad/s)"}
 

@@ -17,7 +17,8 @@ import time
 
 import numpy as np
 
-from pchc_rsl.steering import COMMAND_COMPONENTS, COMMAND_LABELS, set_command, trained_ranges
+from pchc_rsl.export.metadata import COMMAND_COMPONENTS
+from pchc_rsl.viewers.steering import COMMAND_LABELS, set_command, trained_ranges
 
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8080
@@ -253,7 +254,7 @@ class WebViewer:
             self.scene.update_from_mjdata(self.data)
 
     def _panels(self) -> None:
-        from pchc_rsl.live_metrics import live_metrics
+        from pchc_rsl.viewers.overlay import live_metrics
 
         self.preference_text.content = preference_markdown(self.env.cfg.objective_names,
                                                            self.env.preference[0].tolist())

@@ -47,8 +47,8 @@ def record_video(env, policy, renderer, preferences, path: str, seconds: float, 
     The frame rate written is the one achieved, 1 / (frame interval), so the video plays in real time."""
     import torch
 
-    from pchc_rsl.live_metrics import tile_label
-    from pchc_rsl.video import VideoWriter, label, tile
+    from pchc_rsl.viewers.overlay import tile_label
+    from pchc_rsl.viewers.video import VideoWriter, label, tile
 
     steps = max(1, round(seconds / dt))
     every = max(1, round(1.0 / (fps * dt)))
