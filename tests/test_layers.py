@@ -1,11 +1,32 @@
-"""The command-line interfaces are the edge: library code (pchc_rsl, envs, robots, configs) and the tools never import
-pchc_rsl.cli, so everything a CLI does can be called from Python without parsing arguments."""
+"""The layers of the package. The command-line interfaces are the edge: library code (pchc_rsl, envs, robots, configs)
+and the tools never import pchc_rsl.cli, so everything a CLI does can be called from Python without parsing
+arguments. Below the edge each package imports only the packages beneath it (LAYERS), so none imports another that
+imports it back."""
 
 import ast
 import pathlib
+import subprocess
+import sys
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 LIBRARY = ["pchc_rsl", "envs", "robots", "configs", "tools", "examples"]
+MAPPED = ("envs", "robots", "configs")
+"""Top-level folders installed as pchc_rsl.<folder>."""
+
+LAYERS = [
+    "utils",  # helpers that know nothing of PCHC
+    "preference", "pareto",  # the paper's math
+    "storage", "modules", "amp", "algorithms",  # the learning, laid out as rsl-rl's
+    "export",  # the ONNX file a robot runs
+    "runners",
+    "robots", "envs", "configs",  # the MuJoCo side
+    "training",  # a training job from a config
+    "evaluation",
+    "viewers",
+    "deploy",
+    "cli",
+]
+"""pchc_rsl's packages (and its two loose modules), lowest first: each may import only those before it."""
 
 
 def cli_imports(path: pathlib.Path) -> list[str]:
@@ -49,3 +70,72 @@ def test_a_run_without_the_g1_model_ends_by_counting_its_skipped_g1_tests():
     assert g1_skip_line(["chromium missing", "set PCHC_MOTION_DIR"]) is None
     line = g1_skip_line([G1_SKIP, "chromium missing", G1_SKIP, G1_SKIP])
     assert line.startswith("3 of 4 skipped tests need the Unitree G1 model") and "MENAGERIE_ROOT" in line
+
+
+def unit_of(path: pathlib.Path) -> str | None:
+    """The entry of LAYERS a source file belongs to (None for pchc_rsl/__init__.py)."""
+    parts = path.relative_to(ROOT).parts
+    if parts[0] in MAPPED:
+        return parts[0]
+    name = parts[1].removesuffix(".py")
+    return None if name == "__init__" else name
+
+
+def imported_units(path: pathlib.Path) -> list[tuple[int, str]]:
+    """(line, entry of LAYERS) of every import of pchc_rsl.<entry> in one file, in functions too."""
+    found = []
+    for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+        if isinstance(node, ast.Import):
+            names = [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.module == "pchc_rsl":
+            names = [f"pchc_rsl.{alias.name}" for alias in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.module is not None and node.level == 0:
+            names = [node.module]
+        else:
+            continue
+        found += [(node.lineno, name.split(".")[1]) for name in names if name.startswith("pchc_rsl.")]
+    return found
+
+
+def upward_imports(path: pathlib.Path, unit: str) -> list[str]:
+    """'line: unit -> imported unit' for every import of a package at or above ``unit``'s layer (itself excepted)."""
+    rank = LAYERS.index(unit)
+    return [f"{line}: {unit} -> {other}" for line, other in sorted(imported_units(path))
+            if other != unit and (other not in LAYERS or LAYERS.index(other) >= rank)]
+
+
+def package_files():
+    for folder in ("pchc_rsl", *MAPPED):
+        yield from sorted((ROOT / folder).rglob("*.py"))
+
+
+def test_the_layer_check_sees_an_import_of_a_higher_or_unknown_package(tmp_path):
+    sample = tmp_path / "sample.py"
+    sample.write_text("import pchc_rsl.utils.files\nfrom pchc_rsl import preference, viewers\n"
+                      "def f():\n    from pchc_rsl.training.build import make_runner\n    import pchc_rsl.misc\n"
+                      "from pchc_rsl.runners import load_checkpoint\n")
+    expected = ["2: runners -> viewers", "4: runners -> training", "5: runners -> misc"]
+    assert upward_imports(sample, "runners") == expected
+    assert upward_imports(sample, "cli") == ["5: cli -> misc"]
+
+
+def test_every_package_has_its_place_in_the_layers():
+    units = {unit for path in package_files() if (unit := unit_of(path)) is not None}
+    assert {"export", "training", "viewers", "envs"} <= units
+    assert sorted(units) == sorted(LAYERS), "place a new package in LAYERS, above everything it imports"
+
+
+def test_each_package_imports_only_the_packages_beneath_it():
+    offenders = {str(p.relative_to(ROOT)): hits for p in package_files()
+                 if (unit := unit_of(p)) in LAYERS and (hits := upward_imports(p, unit))}
+    assert offenders == {}, f"imports against the layers (move the shared code down, or the importer up): {offenders}"
+
+
+def test_the_deploy_reads_a_policy_files_metadata_without_torch():
+    """pchc-deploy checks its arguments against the file before torch has loaded (a second, not several)."""
+    code = ("import sys\nfrom pchc_rsl.deploy.live_controls import check_preference, command_ranges_of\n"
+            "from pchc_rsl.deploy.policy_file import read_metadata\n"
+            "print(sorted(m for m in sys.modules if m.split('.')[0] == 'torch'))")
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.strip() == "[]"
