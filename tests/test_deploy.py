@@ -400,6 +400,46 @@ def g1_scene(tmp_path, joints, motors: bool = True) -> str:
     return str(path)
 
 
+def test_unitree_bands_force_is_a_spring_from_3_m_lowered_a_press_at_a_time():
+    """unitree_mujoco's band, worked by hand: 200 N/m and 100 N s/m from (0, 0, 3) m; 12 presses of key 8, 0.2 s
+    apart, the last 0.2 s before the release, make it 1.2 m long."""
+    from pchc_rsl.deploy.elastic_band import UnitreeBand, band_force
+
+    np.testing.assert_allclose(band_force([0, 0, 0.8], [0, 0, 0], 1.2), [0, 0, 200.0])  # 200 x (2.2 - 1.2)
+    np.testing.assert_allclose(band_force([0, 0, 0.8], [0, 0, 0.1], 1.2), [0, 0, 190.0])  # - 100 x 0.1 m/s
+    # 1.6 m below and 1.2 m beside the anchor: 2 m away, 200 x (2 - 1.2) = 160 N along (-0.6, 0, 0.8)
+    np.testing.assert_allclose(band_force([1.2, 0, 1.4], [0, 0, 0], 1.2), [-96.0, 0, 128.0])
+    band = UnitreeBand(12, release_s=6.0)
+    assert [band.length(t) for t in (0.0, 3.59, 3.6, 4.5, 5.8, 5.99)] == pytest.approx([0, 0, 0.1, 0.5, 1.2, 1.2])
+    assert band.on(5.99) and not band.on(6.0)
+
+
+@needs_g1
+@pytest.mark.parametrize("stays", [True, False], ids=["force-stays", "clean-release"])
+def test_unitree_bands_last_force_stays_after_the_release_only_when_told(stays):
+    """In unitree_mujoco's loop without its viewer the band's last force stays on the torso after key 9; the clean
+    mode takes it away. The force left is the band's at the last step before the release, computed here by hand
+    from the torso's position and velocity then."""
+    from pchc_rsl.deploy.simulator import G1Simulator
+
+    sim = G1Simulator(hold_up_s=0.3, unitree_band=12, band_force_stays=stays)
+    while sim.time < 0.3 - 1e-9:
+        position, velocity = sim.data.qpos[:3].copy(), sim.data.qvel[:3].copy()
+        sim.step()
+    delta = np.array([0.0, 0.0, 3.0]) - position
+    direction = delta / np.linalg.norm(delta)
+    last = (200.0 * (np.linalg.norm(delta) - 1.2) - 100.0 * velocity @ direction) * direction
+    assert 150 < last[2] < 300  # the band still carries most of the robot
+    for _ in range(100):
+        sim.step()
+    left = sim.data.xfrc_applied[sim.torso]
+    if stays:
+        np.testing.assert_allclose(left[:3], last, atol=1e-9)
+        assert sim.band_force_left == pytest.approx(np.round(last, 2).tolist())
+    else:
+        assert not left.any() and sim.band_force_left == [0.0, 0.0, 0.0]
+
+
 @needs_g1
 def test_a_scene_in_the_sdk_motor_order_is_simulated_and_any_other_refused(tmp_path):
     """--scene takes a G1 whose 29 torque motors follow unitree_sdk2's order (unitree_mujoco's scene_29dof.xml is
@@ -774,6 +814,9 @@ def test_bad_input_is_one_line(tmp_path, forward_only_onnx):
         (forward_only_onnx, "--mujoco", "--command", "0.5,0.3,0"):
             "--command's lateral 0.3 m/s: this policy takes no lateral",
         (WALK_ONNX, "--mujoco", "--command", "1.5"): "forward 1.5 m/s is outside the range the policy was trained in",
+        (WALK_ONNX, "--mujoco", "--band-force-stays"): "give --unitree-band PRESSES too",
+        (WALK_ONNX, "--network", "lo", "--unitree-band", "12"): "--unitree-band is the simulated robot's gantry",
+        (WALK_ONNX, "--mujoco", "--unitree-band", "-1"): "must be a whole number of key presses >= 0",
     }
     if not sdk_available():
         cases.pop((WALK_ONNX, "--network", "no-such-if0"))

@@ -12,7 +12,7 @@ import sys
 import tempfile
 
 from pchc_rsl.cli import arguments
-from pchc_rsl.cli.sim_bridge import add_simulation_arguments
+from pchc_rsl.cli.sim_bridge import add_simulation_arguments, check_band_arguments
 
 PROG = "pchc-deploy"
 
@@ -86,6 +86,9 @@ def main(argv: list[str] | None = None) -> None:
         parser.error("--scene is the simulated robot's model: use it with --sim or --mujoco")
     if args.scene and not os.path.isfile(args.scene):
         parser.error(f"no scene file at {args.scene}")
+    if args.unitree_band is not None and not simulated:
+        parser.error("--unitree-band is the simulated robot's gantry: use it with --sim or --mujoco")
+    check_band_arguments(parser, args)
     seconds = args.seconds if args.seconds is not None or not simulated else 10.0
     try:
         setup = checked_setup(args, simulated)
@@ -149,11 +152,12 @@ def deploy(args, seconds: float | None, setup: dict) -> dict:
         from pchc_rsl.deploy.simulator import G1Simulator
 
         sim = G1Simulator(timestep=args.timestep, latency_s=args.latency_ms / 1e3, jitter_s=args.jitter_ms / 1e3,
-                          hold_up_s=args.hold_up, pd_on_arrival=args.pd_on_arrival, scene=args.scene)
+                          hold_up_s=args.hold_up, pd_on_arrival=args.pd_on_arrival, scene=args.scene,
+                          unitree_band=args.unitree_band, band_force_stays=args.band_force_stays)
         run = Deployment(policy, InProcessRobot(sim, policy.control_period, args.lowcmd_hz), preference, command, auto)
         run.run(seconds)
         return with_fall(run.report(), sim.fell, sim.driven_distance()) | {
-            "min_height_after_release": sim.min_height_after_release}
+            "min_height_after_release": sim.min_height_after_release, "band_force_left": sim.band_force_left}
 
     from pchc_rsl.deploy.sdk import DdsRobot
 
@@ -167,7 +171,9 @@ def deploy(args, seconds: float | None, setup: dict) -> dict:
              str(args.jitter_ms), "--hold-up", str(args.hold_up), "--report", bridge_report,
              "--parent-pid", str(os.getpid())]
             + (["--viewer"] if args.sim_viewer else []) + (["--pd-on-arrival"] if args.pd_on_arrival else [])
-            + (["--scene", args.scene] if args.scene else []))
+            + (["--scene", args.scene] if args.scene else [])
+            + (["--unitree-band", str(args.unitree_band)] if args.unitree_band is not None else [])
+            + (["--band-force-stays"] if args.band_force_stays else []))
     else:
         domain, interface = (0 if args.domain is None else args.domain), args.network
     keys = console = None
@@ -263,6 +269,10 @@ def summary_lines(report: dict, report_file: str | None) -> list[str]:
     if "fell" in report:
         lines.append(f"  simulated robot: {'FELL' if report['fell'] else 'did not fall'}, walked "
                      f"{report['base_distance']:.2f} m before damping")
+    band = report.get("band_force_left") or (report.get("bridge") or {}).get("band_force_left")
+    if band and any(band):
+        lines.append(f"  unitree_mujoco's band: ({band[0]:.1f}, {band[1]:.1f}, {band[2]:.1f}) N left on the torso after "
+                     "it let go")
     bridge = report.get("bridge")
     if bridge is not None:
         lines.append(f"  simulation: {bridge['sim_time']:.1f} s simulated in {bridge['wall_s']:.1f} s (real-time factor "

@@ -18,6 +18,13 @@ def non_negative_ms(text: str) -> float:
     return value
 
 
+def band_presses(text: str) -> int:
+    value = int(text) if text.isdigit() else -1
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be a whole number of key presses >= 0, got '{text}'")
+    return value
+
+
 def add_simulation_arguments(parser) -> None:
     """Options of the simulated G1, shared with pchc-deploy --sim and --mujoco."""
     parser.add_argument("--timestep", type=arguments.positive_float, default=0.002,
@@ -34,9 +41,21 @@ def add_simulation_arguments(parser) -> None:
                         "unitree_mujoco's simulate_python does (default: recompute the PD law at every physics step, "
                         "as the G1's motor drivers do); with --latency-ms the torque is computed when the delayed "
                         "command takes effect. Their default physics rate is --timestep 0.005")
+    parser.add_argument("--unitree-band", type=band_presses, metavar="PRESSES",
+                        help="hang the robot on unitree_mujoco's elastic band instead (200 N/m from 3 m above the "
+                        "origin to the torso), lowered by PRESSES presses of their key 8 (0.1 m each, 0.2 s apart) "
+                        "before it lets go at --hold-up")
+    parser.add_argument("--band-force-stays", action="store_true",
+                        help="with --unitree-band: the band's last force stays on the torso after it lets go, as in "
+                        "unitree_mujoco's simulate_python loop run without its viewer (the viewer's sync clears it)")
     parser.add_argument("--scene", metavar="MJCF", help="simulate this G1 model instead of mujoco-menagerie's: 29 "
                         "torque motors in unitree_sdk2's order, e.g. unitree_mujoco's "
                         "unitree_robots/g1/scene_29dof.xml (with --pd-on-arrival: their model and torque semantics)")
+
+
+def check_band_arguments(parser, args) -> None:
+    if args.band_force_stays and args.unitree_band is None:
+        parser.error("--band-force-stays is about unitree_mujoco's band: give --unitree-band PRESSES too")
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -59,6 +78,7 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     if not 0 <= args.domain <= 232:
         parser.error(f"--domain must be a DDS domain id in [0, 232], got {args.domain}")
+    check_band_arguments(parser, args)
 
     try:
         from pchc_rsl.deploy.sdk import DdsBridgeEnd, SdkMissing
@@ -67,7 +87,7 @@ def main(argv: list[str] | None = None) -> None:
 
         sim = G1Simulator(timestep=args.timestep, latency_s=args.latency_ms / 1e3, jitter_s=args.jitter_ms / 1e3,
                           hold_up_s=args.hold_up, seed=args.seed, visual=args.viewer, pd_on_arrival=args.pd_on_arrival,
-                          scene=args.scene)
+                          scene=args.scene, unitree_band=args.unitree_band, band_force_stays=args.band_force_stays)
         bridge = SimBridge(sim, lambda on_command: DdsBridgeEnd(args.domain, args.network, on_command),
                            viewer=args.viewer, parent_pid=args.parent_pid)
     except (ValueError, SdkMissing) as error:

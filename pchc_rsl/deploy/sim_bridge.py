@@ -79,6 +79,7 @@ class SimBridge:
                 "commands_bad_crc": self.dds.bad_crc, "commands_rejected": self.dds.rejected,
                 "states_sent": self.dds.sent, "loop": self.loop.summary(), "pd_on_arrival": self.sim.pd_on_arrival,
                 "timestep": float(self.sim.model.opt.timestep), "min_height_after_release": self.sim.min_height_after_release,
+                "band_force_left": self.sim.band_force_left,
                 **self.real_time()}
 
     def write_report(self, path: str) -> None:

@@ -9,6 +9,10 @@ from the joint sensors as that bridge reads them: MuJoCo evaluates sensors befor
 step they hold the state at the step's start, one step old. With latency, a command takes effect when its delay has
 passed, and the torque is computed from the sensors then.
 
+The gantry is a stiff band holding the pelvis at its start pose until ``hold_up_s``, or with ``unitree_band``
+unitree_mujoco's elastic band on the torso (elastic_band.py), lowered that many presses of their key 8 and let go
+at ``hold_up_s``; with ``band_force_stays`` its last force stays applied, as in their loop without its viewer.
+
 The model is the full 29-DoF menagerie G1, or with ``scene`` another G1 MJCF whose 29 motor actuators and joints
 follow unitree_sdk2's motor order, such as unitree_mujoco's ``unitree_robots/g1/scene_29dof.xml``: the same deploy
 against that simulator's model and torque semantics, in lockstep, without its process keeping real time."""
@@ -20,6 +24,7 @@ import collections
 import mujoco
 import numpy as np
 
+from pchc_rsl.deploy.elastic_band import UnitreeBand
 from pchc_rsl.deploy.g1_motors import MOTOR_DEFAULT_POS, MOTOR_EFFORT_LIMIT, MOTOR_JOINTS, NUM_MOTORS
 from pchc_rsl.deploy.robot_io import MotorCommand, RobotState
 from pchc_rsl.robots.g1.constants import STANDING_HEIGHT
@@ -54,7 +59,7 @@ class G1Simulator:
 
     def __init__(self, timestep: float = 0.002, latency_s: float = 0.0, jitter_s: float = 0.0,
                  hold_up_s: float = 0.0, seed: int = 0, visual: bool = False, pd_on_arrival: bool = False,
-                 scene: str | None = None) -> None:
+                 scene: str | None = None, unitree_band: int | None = None, band_force_stays: bool = False) -> None:
         if scene is None:
             self.model = build_g1_model(MOTOR_JOINTS, timestep=timestep, torque_control=True, visual=visual)
         else:
@@ -65,6 +70,8 @@ class G1Simulator:
         self.pd_on_arrival = pd_on_arrival
         self.rng = np.random.default_rng(seed)
         self.pelvis = self.model.body("pelvis").id
+        self.torso = self.model.body("torso_link").id
+        self.band = None if unitree_band is None else UnitreeBand(unitree_band, hold_up_s, band_force_stays)
         self.data.qpos[2] = STANDING_HEIGHT
         self.data.qpos[7:] = MOTOR_DEFAULT_POS
         mujoco.mj_forward(self.model, self.data)
@@ -113,7 +120,12 @@ class G1Simulator:
             self.sensed = (d.qpos[7:].copy(), d.qvel[6:].copy())
         else:
             d.ctrl[:] = self.command.torque(d.qpos[7:], d.qvel[6:], MOTOR_EFFORT_LIMIT)
-        d.xfrc_applied[self.pelvis] = self._band() if self.time < self.hold_up_s else 0.0
+        if self.band is None:
+            d.xfrc_applied[self.pelvis] = self._band() if self.time < self.hold_up_s else 0.0
+        elif self.band.on(self.time):
+            d.xfrc_applied[self.torso, :3] = self.band.force(self.time, d.qpos[:3], d.qvel[:3])
+        elif not self.band.force_stays:
+            d.xfrc_applied[self.torso] = 0.0
         mujoco.mj_step(self.model, d)
         if d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > 0:
             raise SimulationDiverged(f"the G1 simulation diverged at t = {self.time:.3f} s (MuJoCo reset it); "
@@ -129,6 +141,14 @@ class G1Simulator:
     def min_height_after_release(self) -> float | None:
         """The pelvis's lowest height (m) since the hold-up band let go (before any damping), None before."""
         return round(self.lowest, 4) if self.lowest < np.inf else None
+
+    @property
+    def band_force_left(self) -> list[float] | None:
+        """unitree_mujoco's band: the force (N, world frame) still on the torso after its release, None before the
+        release or without that band."""
+        if self.band is None or self.band.on(self.time):
+            return None
+        return [round(float(f), 2) for f in self.data.xfrc_applied[self.torso, :3]]
 
     def _band(self) -> np.ndarray:
         """A stiff spring-damper holding the pelvis at its start pose (force and torque, world frame)."""
