@@ -4,6 +4,7 @@ env's, the safety state machine and its watchdog, the fixed-rate loop, one DDS r
 from __future__ import annotations
 
 import json
+import math
 import random
 import struct
 import subprocess
@@ -16,6 +17,7 @@ from pchc_rsl.deploy.g1_motors import MOTOR_DEFAULT_POS, MOTOR_JOINTS, NUM_MOTOR
 from pchc_rsl.deploy.robot_io import MotorCommand, Remote, RobotState
 from pchc_rsl.deploy.safety import DAMPING_KD, RAMP_S, Mode, SafetyStateMachine
 from pchc_rsl.robots.g1.constants import WALK_JOINTS
+from tool_loader import load_tool
 
 WALK_ONNX = "policies/g1_walk.onnx"
 
@@ -792,6 +794,114 @@ def test_the_shipped_walker_walks_10_s_with_pd_on_arrival(tmp_path, preference):
                            "--preference", preference, "--seconds", "10", timeout=600)
     assert not report["fell"] and report["policy_seconds"] >= 10
     assert report["base_distance"] > 2.5
+
+
+# ---------------------------------------------------------------------------------------------- command sequence
+def test_commands_integrate_as_exact_arcs():
+    """0.5 m/s turning at 0.5 rad/s is a circle of radius 1 m about (0, 1): a quarter after pi s at (1, 1) facing
+    +y, half after 2 pi s at (0, 2) facing -x; straight and sideways pieces add R(heading) v t."""
+    from pchc_rsl.deploy.end_point import in_start_frame, integrate_twist
+
+    assert integrate_twist([(math.pi, (0.5, 0.0, 0.5))]) == pytest.approx((1.0, 1.0, math.pi / 2))
+    assert integrate_twist([(2 * math.pi, (0.5, 0.0, 0.5))]) == pytest.approx((0.0, 2.0, math.pi))
+    assert integrate_twist([(math.pi, (0.5, 0.0, -0.5))]) == pytest.approx((1.0, -1.0, -math.pi / 2))
+    # a side step to the left while facing +y goes towards -x; then 2 s forward facing +y
+    assert integrate_twist([(3.0, (0.0, 0.3, 0.0)), (2.0, (0.5, 0.0, 0.0))], start=(1.0, 1.0, math.pi / 2)) == \
+        pytest.approx((0.1, 2.0, math.pi / 2))
+    assert integrate_twist([(4.0, (0.0, 0.0, 0.0))]) == (0.0, 0.0, 0.0)
+    # seen from (1, 2) facing +y, the point (1, 3) facing -x is 1 m ahead, turned a quarter left
+    assert in_start_frame((1.0, 2.0, math.pi / 2), (1.0, 3.0, math.pi)) == pytest.approx((1.0, 0.0, math.pi / 2))
+
+
+def sequence_file(folder, text: str, name: str = "seq.txt") -> str:
+    path = folder / name
+    path.write_text(text)
+    return str(path)
+
+
+def test_a_command_sequence_holds_each_row_until_the_next():
+    from pchc_rsl.deploy.command_sequence import read_command_sequence
+
+    sequence = read_command_sequence("examples/steering_sequence.txt", STEERING_RANGES)
+    # the file is tools/steering_sequence.py's sequence
+    steering = load_tool("steering_sequence")
+    starts = np.cumsum([0.0] + [seconds for _, seconds, _ in steering.SEQUENCE[:-1]])
+    assert [(row.start, row.command) for row in sequence.rows] == list(zip(starts, [c for *_, c in steering.SEQUENCE]))
+    assert [sequence.at(t).command for t in (0.0, 2.98, 3.0, 8.99, 11.5, 12.0, 100.0)] == [
+        (0.5, 0, 0), (0.5, 0, 0), (0.3, 0, 0.5), (0.3, 0, -0.5), (0, 0.3, 0), (0, 0, 0), (0, 0, 0)]
+
+
+def test_each_bad_command_sequence_is_refused_naming_its_row(tmp_path):
+    from pchc_rsl.deploy.command_sequence import read_command_sequence
+
+    cases = {
+        "0 0.5 0 0\n2 0.5 0\n": ":2: a row is four numbers (seconds forward lateral yaw_rate), got '2 0.5 0'",
+        "0 0.5 0 0\n2 fast 0 0\n": ":2: a row is four numbers",
+        "0 0.5 0 nan\n": ":1: a row is four numbers",
+        "# header\n0 0.5 0 0\n3 0.3 0 0.5\n\n3 0 0 0\n": ":5: rows go forward in time; 3 s does not come after the "
+                                                        "row at 3 s (line 3)",
+        "0 0.5 0 0\n3 0.3 0 0.5\n2 0 0 0\n": ":3: rows go forward in time",
+        "1 0.5 0 0\n": ":1: the first row starts when the policy does, at 0 s; got 1 s",
+        "0 0.5 0 0\n4 1.5 0 0\n": ":2: forward 1.5 m/s is outside the range the policy was trained in, -0.5..1 m/s",
+        "0 0 0 -1.2\n": ":1: yaw rate -1.2 rad/s is outside the range the policy was trained in, -1..1 rad/s",
+        "# only a comment\n\n": ": no command rows; write one per line: seconds forward lateral yaw_rate",
+        "": ": no command rows",
+    }
+    for i, (text, expected) in enumerate(cases.items()):
+        path = sequence_file(tmp_path, text, f"seq{i}.txt")
+        with pytest.raises(ValueError) as refused:
+            read_command_sequence(path, STEERING_RANGES)
+        assert str(refused.value) == path + expected or str(refused.value).startswith(path + expected), refused.value
+    forward_only = {k: tuple(v) for k, v in FORWARD_ONLY.items()}
+    path = sequence_file(tmp_path, "0 0.5 0 0\n1 0.5 0.2 0\n")
+    with pytest.raises(ValueError, match=":2: lateral 0.2 m/s, but this policy takes no lateral command"):
+        read_command_sequence(path, forward_only)
+    with pytest.raises(ValueError, match="this policy takes no velocity command"):
+        read_command_sequence(path, None)
+    with pytest.raises(ValueError, match="--command-sequence .*missing.txt: No such file"):
+        read_command_sequence(str(tmp_path / "missing.txt"), STEERING_RANGES)
+
+
+def test_a_bad_command_sequence_stops_the_deploy_before_the_policy_loads(monkeypatch, tmp_path):
+    """Refused in one line from the file and the policy's metadata: the network (and torch, DDS) never load."""
+    from pchc_rsl.cli import deploy
+    from pchc_rsl.deploy import policy_step
+
+    def no_loading(*_):
+        raise AssertionError("the policy was loaded before the command sequence was checked")
+
+    monkeypatch.setattr(policy_step.PolicyStep, "__init__", no_loading)
+    path = sequence_file(tmp_path, "0 0.5 0 0\n2 0.5 0 3\n")
+    for where in (["--mujoco"], ["--network", "lo"]):
+        with pytest.raises(SystemExit) as exit_:
+            deploy.main([WALK_ONNX, *where, "--command-sequence", path])
+        assert str(exit_.value.code) == (f"pchc-deploy: {path}:2: yaw rate 3 rad/s is outside the range the policy "
+                                         "was trained in, -1..1 rad/s")
+    late = sequence_file(tmp_path, "0 0.5 0 0\n12 0 0 0\n", "late.txt")
+    with pytest.raises(SystemExit) as exit_:
+        deploy.main([WALK_ONNX, "--mujoco", "--command-sequence", late])
+    assert f"{late}:2: the row at 12 s starts after the run's 10 s of policy; give --seconds" in str(exit_.value.code)
+
+
+@needs_g1
+def test_a_command_sequence_steers_the_deploy_and_the_report_gives_the_end_point(tmp_path):
+    """In process, 1 s forward at 0.5 m/s then 1 s turning left (0.3 m/s, 0.5 rad/s): the commands change at the
+    rows' times, and the report's end point compares the pelvis with the commanded one, worked by hand: 0.5 m, then
+    an arc of radius 0.6 m turning 0.5 rad/s for the rest of the policy's time (2 s and the tick that reached it)."""
+    path = sequence_file(tmp_path, "# a short walk\n0 0.5 0 0\n1 0.3 0 0.5\n")
+    report = deploy_report(tmp_path / "walk.json", WALK_ONNX, "--mujoco", "--preference", "1,0", "--seconds", "2",
+                           "--command-sequence", path, timeout=600)
+    assert report["policy_commands"] == [[0.0, 0.5, 0.0, 0.0], [1.0, 0.3, 0.0, 0.5]]
+    end = report["end_point"]
+    turned = 0.5 * (report["policy_seconds"] - 1.0)
+    assert 2.0 <= report["policy_seconds"] <= 2.021
+    commanded = (0.5 + 0.6 * math.sin(turned), 0.6 * (1 - math.cos(turned)), math.degrees(turned))
+    assert end["commanded"][:2] == pytest.approx(commanded[:2], abs=1e-3)  # as reported: m to 3 decimals
+    assert end["commanded"][2] == pytest.approx(commanded[2], abs=0.06)  # degrees to 1
+    reached = end["reached"]
+    assert 0.2 < reached[0] < 1.2  # it walked forward
+    assert reached[2] == pytest.approx(end["imu_heading_deg"], abs=0.2)  # the trace and the IMU agree
+    assert end["off_m"] == pytest.approx(math.hypot(reached[0] - commanded[0], reached[1] - commanded[1]), abs=2e-3)
 
 
 # ---------------------------------------------------------------------------------------------- bad input

@@ -60,6 +60,11 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--command", type=command_vector, default=None, metavar="VX[,VY,WZ]",
                         help="walking: forward and lateral speed in m/s, yaw rate in rad/s, within the ranges the "
                         "policy was trained in (default 0.5,0,0 with --sim/--mujoco, 0 on a robot)")
+    parser.add_argument("--command-sequence", metavar="FILE",
+                        help="the command over time, from the policy's start: one row per line, 'seconds forward "
+                        "lateral yaw_rate' (m/s, m/s, rad/s), each held until the next row's start, the last until "
+                        "the run ends; # comments. Checked against the policy's ranges before anything starts; the "
+                        "summary compares the end point with where the commands lead (examples/steering_sequence.txt)")
     parser.add_argument("--seconds", type=arguments.positive_float,
                         help="--sim/--mujoco: seconds of policy (default 10); robot: stop after this long")
     parser.add_argument("--hold-seconds", type=arguments.positive_float, default=1.0, metavar="S",
@@ -79,6 +84,8 @@ def main(argv: list[str] | None = None) -> None:
         parser.error(f"--report {args.report} is a folder; give a file such as {args.report}/deploy.json")
     if args.web is not None and args.mujoco:
         parser.error("--web steers a deploy that runs in real time: use it with --sim or --network")
+    if args.command is not None and args.command_sequence is not None:
+        parser.error("give --command or --command-sequence, not both")
     if args.domain is not None and not 0 <= args.domain <= 232:
         parser.error(f"--domain must be a DDS domain id in [0, 232], got {args.domain}")
     simulated = args.sim or args.mujoco
@@ -91,7 +98,7 @@ def main(argv: list[str] | None = None) -> None:
     check_band_arguments(parser, args)
     seconds = args.seconds if args.seconds is not None or not simulated else 10.0
     try:
-        setup = checked_setup(args, simulated)
+        setup = checked_setup(args, simulated, seconds)
         report = deploy(args, seconds, setup)
     except KeyboardInterrupt:  # before the loop took over Ctrl-C (which damps, then exits)
         raise SystemExit(f"{PROG}: interrupted before the deploy loop started; nothing was sent") from None
@@ -115,9 +122,10 @@ def one_line(error: BaseException) -> str:
     return text.splitlines()[0] if text else type(error).__name__
 
 
-def checked_setup(args, simulated: bool) -> dict:
+def checked_setup(args, simulated: bool, seconds: float | None = None) -> dict:
     """Everything the arguments must agree with the policy file on, checked from its metadata before the network,
-    torch or DDS load: the preference, the command, the LowCmd rate."""
+    torch or DDS load: the preference, the command or command sequence, the LowCmd rate."""
+    from pchc_rsl.deploy.command_sequence import read_command_sequence
     from pchc_rsl.deploy.live_controls import Command, check_preference, command_ranges_of
     from pchc_rsl.deploy.lowcmd_stream import check_lowcmd_rate
     from pchc_rsl.deploy.policy_file import read_metadata
@@ -132,7 +140,15 @@ def checked_setup(args, simulated: bool) -> dict:
     else:
         command = [0.5 if simulated and ranges is not None else 0.0, 0.0, 0.0]
     Command(ranges, command)  # refuses a component the policy was not trained with, or a value outside its range
-    return {"preference": preference, "command": command, "command_note": note}
+    sequence = None
+    if args.command_sequence is not None:
+        sequence = read_command_sequence(args.command_sequence, ranges)
+        last = sequence.rows[-1]
+        if simulated and seconds is not None and last.start >= seconds:
+            raise ValueError(f"{sequence.path}:{last.line}: the row at {last.start:g} s starts after the run's "
+                             f"{seconds:g} s of policy; give --seconds (e.g. {last.start + 3:g})")
+        command = list(sequence.rows[0].command)
+    return {"preference": preference, "command": command, "command_note": note, "sequence": sequence}
 
 
 def deploy(args, seconds: float | None, setup: dict) -> dict:
@@ -141,12 +157,14 @@ def deploy(args, seconds: float | None, setup: dict) -> dict:
     from pchc_rsl.deploy.policy_step import PolicyStep
 
     policy = PolicyStep(args.policy)
-    preference, command = setup["preference"], setup["command"]
+    preference, command, sequence = setup["preference"], setup["command"], setup["sequence"]
     print(f"{PROG}: {policy.task} policy, {len(policy.joints.policy_joints)} of 29 joints driven, objectives "
           f"{', '.join(policy.objective_names)}, {1 / policy.control_period:.0f} Hz policy, LowCmd at "
           f"{args.lowcmd_hz:g} Hz", flush=True)
     if setup["command_note"]:
         print(f"{PROG}: {setup['command_note']}", flush=True)
+    if sequence is not None:
+        print(f"{PROG}: command sequence {sequence}, from the policy's start", flush=True)
     auto = AutoSequence(hold_s=args.hold_seconds) if (args.sim or args.mujoco) else None
     if args.mujoco:
         from pchc_rsl.deploy.simulator import G1Simulator
@@ -154,9 +172,10 @@ def deploy(args, seconds: float | None, setup: dict) -> dict:
         sim = G1Simulator(timestep=args.timestep, latency_s=args.latency_ms / 1e3, jitter_s=args.jitter_ms / 1e3,
                           hold_up_s=args.hold_up, pd_on_arrival=args.pd_on_arrival, scene=args.scene,
                           unitree_band=args.unitree_band, band_force_stays=args.band_force_stays)
-        run = Deployment(policy, InProcessRobot(sim, policy.control_period, args.lowcmd_hz), preference, command, auto)
+        run = Deployment(policy, InProcessRobot(sim, policy.control_period, args.lowcmd_hz), preference, command, auto,
+                         sequence=sequence)
         run.run(seconds)
-        return with_fall(run.report(), sim.fell, sim.driven_distance()) | {
+        return with_fall(run.report(list(sim.trace)), sim.fell, sim.driven_distance()) | {
             "min_height_after_release": sim.min_height_after_release, "band_force_left": sim.band_force_left}
 
     from pchc_rsl.deploy.sdk import DdsRobot
@@ -189,7 +208,8 @@ def deploy(args, seconds: float | None, setup: dict) -> dict:
             console = DeployConsole(policy.objective_names, preference, policy.command_ranges, command, port=args.web)
             inputs.append(console)
             print(f"{PROG}: console at {console.url}", flush=True)
-        run = Deployment(policy, WallClockRobot(dds, policy.control_period), preference, command, auto, inputs)
+        run = Deployment(policy, WallClockRobot(dds, policy.control_period), preference, command, auto, inputs,
+                         sequence=sequence)
         try:
             run.run(seconds, no_state_hint=no_state_hint(dds, interface, domain, args.sim),
                     no_state_timeout=30.0 if args.sim else 3.0)  # the bridge takes seconds to start on a busy machine
@@ -210,6 +230,9 @@ def deploy(args, seconds: float | None, setup: dict) -> dict:
     if bridge_report is not None and os.path.exists(bridge_report):
         with open(bridge_report) as f:
             sim_report = json.load(f)
+        trace = sim_report.pop("pose_trace")
+        if "end_point" in report:
+            report["end_point"] = run.end_point(trace)
         report = with_fall(report, sim_report["fell"], sim_report["base_distance"]) | {"bridge": sim_report}
     return report
 
@@ -248,6 +271,19 @@ def lowstate_rate_note(report: dict) -> str:
     return note + ")"
 
 
+def end_point_words(end: dict) -> str:
+    """Where the pelvis ended against where the commands lead, both from the policy's start pose."""
+    def pose(p):
+        return f"({p[0]:+.2f} m, {p[1]:+.2f} m, {p[2]:+.0f} deg)"
+
+    commanded = f"the commands lead to {pose(end['commanded'])}"
+    if end["reached"] is None:
+        return (f"{commanded} (forward, left, heading from the policy's start); the IMU turned "
+                f"{end['imu_heading_deg']:+.0f} deg (a robot's position is not measured here)")
+    return (f"{pose(end['reached'])} (forward, left, heading from the policy's start); {commanded}: "
+            f"{end['off_m']:.2f} m apart, heading {end['heading_off_deg']:+.0f} deg off")
+
+
 def summary_lines(report: dict, report_file: str | None) -> list[str]:
     """The end of a run for the operator's screen; the whole report is the --report JSON."""
     reason = f" ({report['reason']})" if report["reason"] else ""
@@ -269,6 +305,9 @@ def summary_lines(report: dict, report_file: str | None) -> list[str]:
     if "fell" in report:
         lines.append(f"  simulated robot: {'FELL' if report['fell'] else 'did not fall'}, walked "
                      f"{report['base_distance']:.2f} m before damping")
+    end = report.get("end_point")
+    if end is not None:
+        lines.append(f"  end point: {end_point_words(end)}")
     band = report.get("band_force_left") or (report.get("bridge") or {}).get("band_force_left")
     if band and any(band):
         lines.append(f"  unitree_mujoco's band: ({band[0]:.1f}, {band[1]:.1f}, {band[2]:.1f}) N left on the torso after "

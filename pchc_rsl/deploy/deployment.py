@@ -4,11 +4,14 @@ operator's input, let the safety state machine decide the command (the policy's 
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from pchc_rsl.deploy.command_sequence import CommandSequence
+from pchc_rsl.deploy.end_point import end_point_report, in_start_frame, integrate_twist, pose_at, yaw_of
 from pchc_rsl.deploy.fixed_rate import FixedRateLoop
 from pchc_rsl.deploy.g1_motors import MOTOR_DEFAULT_POS, MOTOR_HOLD_KD, MOTOR_HOLD_KP, MOTOR_JOINTS
 from pchc_rsl.deploy.live_controls import (PREFERENCE_STEP, SPEED_STEP, YAW_STEP, Command, Preference, RemoteEdges,
@@ -122,13 +125,17 @@ class AutoSequence:
 class DeployLog:
     events: list = field(default_factory=list)
     trajectory: list = field(default_factory=list)  # (time since policy start, q of the policy joints)
+    commands: list = field(default_factory=list)  # (time since policy start, command) at each change
+    policy_states: list = field(default_factory=list)  # the states the policy started and (so far) ended with
 
 
 class Deployment:
     def __init__(self, policy: PolicyStep, robot, preference, command=(0.0, 0.0, 0.0),
-                 auto: AutoSequence | None = None, inputs: list = (), log=print) -> None:
+                 auto: AutoSequence | None = None, inputs: list = (), log=print,
+                 sequence: CommandSequence | None = None) -> None:
         """``command``: (forward, lateral, yaw rate) to start with; ``inputs``: sources with ``pending()`` -> keys
-        ('s', 'p', ...) or (name, value) settings: the terminal's KeyReader, the browser console."""
+        ('s', 'p', ...) or (name, value) settings: the terminal's KeyReader, the browser console; ``sequence``: the
+        command over time from the policy's start, set as the console sets it (so clipped to the same ranges)."""
         self.policy, self.robot, self.auto, self.inputs, self.log = policy, robot, auto, list(inputs), log
         joints = policy.joints
         kp, kd = MOTOR_HOLD_KP.copy(), MOTOR_HOLD_KD.copy()
@@ -140,6 +147,7 @@ class Deployment:
         self.preference = Preference(preference, policy.objective_names)
         self.command = Command(policy.command_ranges, command)
         self.remote = RemoteEdges()
+        self.sequence, self._row = sequence, None
         self.sticks_active = False
         self._stick_shown, self._stick_shown_at = "", -1.0
         self.record = DeployLog()
@@ -235,8 +243,14 @@ class Deployment:
         targets = None
         if self.safety.mode is Mode.POLICY:
             if self.policy_since is None:
-                self.policy.reset(state, self.command.value)
                 self.policy_since = now
+                self._follow_sequence(state, now)
+                self.policy.reset(state, self.command.value)
+                self.record.policy_states = [state, state]
+            else:
+                self._follow_sequence(state, now)
+                self.record.policy_states[1] = state
+            self._log_command(now - self.policy_since)
             q = self.policy(state, self.preference.value, self.command.value)
             targets = self.policy.joints.to_motors(q, self.default_pos)
             self.record.trajectory.append((now - self.policy_since, self.policy.joints.to_policy(state.q)))
@@ -249,6 +263,26 @@ class Deployment:
             self.record.events.append((round(now - self.started, 3), self.safety.mode.name, self.safety.reason))
         if cmd is not None:
             self.robot.send(cmd)
+
+    def _follow_sequence(self, state: RobotState, now: float) -> None:
+        """The command sequence's row for this moment, set once when its row begins (keys may change it between)."""
+        if self.sequence is None:
+            return
+        row = self.sequence.at(now - self.policy_since)
+        if row is not self._row:
+            self._row = row
+            self._act(("command", row.command), state, now)
+
+    def _log_command(self, t: float) -> None:
+        value = tuple(float(v) for v in self.command.value)
+        if not self.record.commands or self.record.commands[-1][1] != value:
+            self.record.commands.append((round(t, 4), value))
+
+    def commanded_end_point(self) -> tuple[float, float, float]:
+        """Where the commands the policy was given lead (x, y, heading from its start pose), over its time."""
+        end = (self.policy_until or self.robot.now()) - self.policy_since
+        times = [t for t, _ in self.record.commands] + [end]
+        return integrate_twist([(times[i + 1] - t, command) for i, (t, command) in enumerate(self.record.commands)])
 
     def run(self, seconds: float | None = None, no_state_hint: str = "",
             no_state_timeout: float = NO_STATE_TIMEOUT_S) -> None:
@@ -291,13 +325,28 @@ class Deployment:
                 self.robot.send(cmd)
             self.robot.wait_tick()
 
-    def report(self) -> dict:
+    def end_point(self, pose_trace=None) -> dict:
+        """The end point against the commanded one; where the pelvis went comes from a simulator's ``pose_trace``
+        [T, 4] (time, x, y, heading) at the LowState ticks the policy started and ended with (a robot's LowState
+        carries no position: then only the IMU's heading change)."""
+        first, last = self.record.policy_states
+        ticks = [int(first.tick), int(last.tick)]
+        reached = None
+        if pose_trace is not None and len(pose_trace):
+            reached = in_start_frame(pose_at(pose_trace, ticks[0] / 1000), pose_at(pose_trace, ticks[1] / 1000))
+        heading = math.remainder(yaw_of(last.quat) - yaw_of(first.quat), 2 * math.pi)
+        return end_point_report(self.commanded_end_point(), reached, heading) | {"ticks": ticks}
+
+    def report(self, pose_trace=None) -> dict:
         out = {"task": self.policy.task, "final_mode": self.safety.mode.name, "reason": self.safety.reason,
                "preference": [round(float(x), 4) for x in self.preference.value],
                "policy_seconds": (round((self.policy_until or self.robot.now()) - self.policy_since, 3)
                                   if self.policy_since is not None else 0),
                "messages_received": int(self.robot.received), "messages_sent": int(self.robot.sent),
                "commands": int(getattr(self.robot, "commands", 0)), "events": self.record.events}
+        if self.record.commands and self.policy.uses_command:
+            out["policy_commands"] = [[t, *command] for t, command in self.record.commands]  # at each change
+            out["end_point"] = self.end_point(pose_trace)
         if self.record.trajectory:
             _, q = policy_trajectory(self.record)
             out["policy_joint_mean"] = [round(float(x), 4) for x in q.mean(0)]  # the posture, to compare runs

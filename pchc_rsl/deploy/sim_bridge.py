@@ -80,6 +80,7 @@ class SimBridge:
                 "states_sent": self.dds.sent, "loop": self.loop.summary(), "pd_on_arrival": self.sim.pd_on_arrival,
                 "timestep": float(self.sim.model.opt.timestep), "min_height_after_release": self.sim.min_height_after_release,
                 "band_force_left": self.sim.band_force_left,
+                "pose_trace": [[round(v, 4) for v in row] for row in self.sim.trace],
                 **self.real_time()}
 
     def write_report(self, path: str) -> None:

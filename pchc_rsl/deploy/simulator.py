@@ -24,12 +24,17 @@ import collections
 import mujoco
 import numpy as np
 
+from pchc_rsl.deploy.end_point import pose_at, yaw_of
 from pchc_rsl.deploy.elastic_band import UnitreeBand
 from pchc_rsl.deploy.g1_motors import MOTOR_DEFAULT_POS, MOTOR_EFFORT_LIMIT, MOTOR_JOINTS, NUM_MOTORS
 from pchc_rsl.deploy.robot_io import MotorCommand, RobotState
 from pchc_rsl.robots.g1.constants import STANDING_HEIGHT
 from pchc_rsl.robots.g1.model import build_g1_model
 
+TRACE_PERIOD = 0.02
+"""s of simulated time between two samples of the pelvis's pose trace (the policy's period)."""
+TRACE_LENGTH = 30000
+"""Samples kept: the last 10 minutes."""
 FALL_HEIGHT = 0.45
 """Pelvis height (m) under which the robot counts as fallen (the walking task's termination height)."""
 
@@ -85,6 +90,10 @@ class G1Simulator:
         self.lowest = np.inf
         self.sensed = (self.data.qpos[7:].copy(), self.data.qvel[6:].copy())
         """Joint positions and velocities as MuJoCo's sensors report them: the state at the last step's start."""
+        self.trace: collections.deque = collections.deque(maxlen=TRACE_LENGTH)
+        """(time, x, y, heading) of the pelvis every TRACE_PERIOD, for the end point of a walk."""
+        self._trace_every = max(1, round(TRACE_PERIOD / timestep))
+        self._record_pose()
 
     @property
     def fell(self) -> bool:
@@ -131,11 +140,21 @@ class G1Simulator:
             raise SimulationDiverged(f"the G1 simulation diverged at t = {self.time:.3f} s (MuJoCo reset it); "
                                      "a smaller --timestep or softer gains fix this")
         self.steps += 1
+        if self.steps % self._trace_every == 0:
+            self._record_pose()
         if self.time >= self.hold_up_s:
             if self.damped_at is None:
                 self.lowest = min(self.lowest, float(d.qpos[2]))
             if d.qpos[2] < FALL_HEIGHT and self.fell_at is None:
                 self.fell_at = self.time
+
+    def _record_pose(self) -> None:
+        d = self.data
+        self.trace.append((round(self.time, 6), float(d.qpos[0]), float(d.qpos[1]), yaw_of(d.qpos[3:7])))
+
+    def pose_at(self, t: float) -> tuple[float, float, float]:
+        """The pelvis's (x, y, heading) at simulated time ``t``, from the trace."""
+        return pose_at(np.array(self.trace), t)
 
     @property
     def min_height_after_release(self) -> float | None:
