@@ -129,7 +129,9 @@ def _init_parameters(cls: type) -> set[str]:
 def default_actor() -> ModelConfig:
     return ModelConfig(
         class_name=ACTOR_CLASSES["pci"],
-        distribution_cfg={"class_name": "rsl_rl.modules:GaussianDistribution", "init_std": 1.0, "std_type": "log"},
+        # rsl-rl's Gaussian, sampled without a host sync per step (pchc_rsl/modules/distribution.py)
+        distribution_cfg={"class_name": "pchc_rsl.modules.distribution:GaussianDistribution", "init_std": 1.0,
+                          "std_type": "log"},
         kwargs={"routing_scale": DEFAULT_ROUTING_SCALE},  # named, so that checkpoints record it
     )
 

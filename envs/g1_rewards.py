@@ -6,7 +6,11 @@ env's parts: ``env.robot`` (state), ``env.feet`` (contacts, strides), ``env.push
 
 from __future__ import annotations
 
+import weakref
+
 import torch
+
+_JOINT_COLUMNS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def track_lin_vel_xy(env, std: float) -> torch.Tensor:
@@ -77,9 +81,20 @@ def fall(env) -> torch.Tensor:
 def joint_deviation(env, joints: list[str]) -> torch.Tensor:
     """sum_j (q_j - q_default_j)^2 over the env's joints whose names contain one of ``joints`` (e.g. "hip_roll"):
     unitree_rl_gym's G1 hip_pos term, which keeps the legs from splaying into a straddle."""
-    columns = [i for i, name in enumerate(env.cfg.joints) if any(part in name for part in joints)]
+    columns = joint_columns(env, joints)
     error = env.robot.joint_pos[:, columns] - env.default_joint_pos[columns]
     return (error**2).sum(-1)
+
+
+def joint_columns(env, joints: list[str]) -> torch.Tensor:
+    """[k] indices, on the env's device, of its joints whose names contain one of ``joints``; made once per env and
+    list (an index made from a Python list at every step is copied to a GPU with a wait)."""
+    cache = _JOINT_COLUMNS.setdefault(env, {})
+    key = tuple(joints)
+    if key not in cache:
+        cache[key] = torch.tensor([i for i, name in enumerate(env.cfg.joints) if any(part in name for part in joints)],
+                                  dtype=torch.long, device=env.device)
+    return cache[key]
 
 
 def feet_slip(env) -> torch.Tensor:

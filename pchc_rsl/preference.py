@@ -207,12 +207,11 @@ def routing_weights(
     m = lam.shape[-1]
     points = expert_positions_on_simplex(positions, m) if positions.dim() == 1 else positions
     points = points.to(lam.device, lam.dtype)
-    if m == 2:
-        base = torch.tensor([alpha0, alpha0 if beta0 is None else beta0], device=lam.device, dtype=lam.dtype)
-    else:
-        if beta0 is not None and beta0 != alpha0:
-            raise ValueError(f"With {m} objectives every objective uses alpha0; got beta0={beta0} != alpha0={alpha0}.")
-        base = torch.full((m,), float(alpha0), device=lam.device, dtype=lam.dtype)
+    if m > 2 and beta0 is not None and beta0 != alpha0:
+        raise ValueError(f"With {m} objectives every objective uses alpha0; got beta0={beta0} != alpha0={alpha0}.")
+    second = alpha0 if beta0 is None else beta0
+    # made on the device (a tensor from a Python list would be copied there, with a wait, at every call)
+    base = torch.where(torch.arange(m, device=lam.device) == 1, float(second), float(alpha0)).to(lam.dtype)
     concentration = base + lam * scale  # [N, m]
     log_points = points.clamp(eps, 1.0 - eps).log()  # [E, m]
     # log of the unnormalised density, sum_i (c_i - 1) log p_ji: [N, m] @ [m, E]
