@@ -27,7 +27,7 @@ import torch
 
 from pchc_rsl.envs.warp_device import (TESTED_MUJOCO_WARP, cuda_graph_problem, mujoco_warp_version_note,
                                        require_warp_cuda)
-from pchc_rsl.envs.warp_settings import WarpSettings
+from pchc_rsl.envs.warp_settings import PhysicsOverflow, WarpSettings
 
 try:
     import mujoco_warp as mjw
@@ -84,9 +84,6 @@ def _fold(nefc: wp.array(dtype=int), niter: wp.array(dtype=int), nacon: wp.array
     if (flags & ~LIMIT_BITS) != 0:
         wp.atomic_or(record, FLAGS, flags & ~LIMIT_BITS)
 
-
-class PhysicsOverflow(RuntimeError):
-    """A Warp buffer overflowed: contacts or constraint rows were dropped, so the physics was wrong."""
 
 def batchable_fields() -> list[str]:
     """Model fields MuJoCo Warp can give a leading batch dimension (their array spec starts with '*')."""

@@ -12,6 +12,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 
+class PhysicsOverflow(RuntimeError):
+    """A Warp buffer overflowed: contacts or constraint rows were dropped, so the physics was wrong. (Here, not in
+    physics_warp.py, so that a runner can catch it without importing Warp.)"""
+
+
 @dataclass
 class WarpSettings:
     """Buffers and solver of ``--physics warp`` (C MuJoCo ignores them)."""

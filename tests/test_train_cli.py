@@ -456,3 +456,28 @@ def test_a_mistyped_task_gets_the_closest_one_and_a_fresh_run_echoes_its_overrid
                     "--log-dir", str(tmp_path / "run")])
     line = next(x for x in capsys.readouterr().out.splitlines() if "overrides of the task's config:" in x)
     assert "runner.algorithm.learning_rate=0.0003" in line
+
+
+def test_a_physics_overflow_stops_training_naming_the_setting_and_keeps_the_checkpoints(tmp_path, monkeypatch, capsys):
+    """A MuJoCo Warp buffer that overflows in iteration 2 stops the run in one line: the task, the buffer and the
+    size to set (the physics' report), and the last checkpoint, which is whole."""
+    from pchc_rsl.envs.warp_settings import PhysicsOverflow
+
+    reports = {"n": 0}
+
+    def physics_report(self):
+        reports["n"] += 1
+        if reports["n"] == 3:
+            raise PhysicsOverflow("MuJoCo Warp overflowed its buffers of constraint rows (njmax) [NEFC]; set "
+                                  "env.warp.constraints_per_env=320 (now 160; needed 161 rows in one world)")
+        return {}
+
+    monkeypatch.setattr(ToyEnv, "physics_report", physics_report, raising=False)
+    run = tmp_path / "run"
+    message = one_line_exit(capsys, [*SMALL, "--max-iterations", "5", "runner.save_interval=1", "--log-dir", str(run)],
+                            code=1)
+    assert message.startswith("pchc-train: toy: stopped in iteration 2 without learning from it: MuJoCo Warp")
+    assert "set env.warp.constraints_per_env=320" in message
+    assert f"the last checkpoint, {run / 'model_1.pt'}, is intact" in message
+    assert sorted(p.name for p in run.glob("model_*.pt")) == ["model_0.pt", "model_1.pt"]
+    assert torch.load(run / "model_1.pt", weights_only=True)["iter"] == 1

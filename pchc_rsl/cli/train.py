@@ -190,7 +190,7 @@ def resolve(args) -> tuple:
 
 def train(cfg, config: dict, log_dir: str, args) -> None:
     """Build, train, and close with a summary; a failed run that saved no checkpoint leaves no folder behind."""
-    from pchc_rsl.runners import NonFiniteTraining, TrainingInterrupted
+    from pchc_rsl.runners import NonFiniteTraining, PhysicsOverflowStopped, TrainingInterrupted
     from pchc_rsl.training.build import make_runner
     from pchc_rsl.training.run_folder import checkpoints_in, first_missing_folder, remove_if_unused
     from pchc_rsl.training.threads import apply_threads
@@ -239,7 +239,7 @@ def train(cfg, config: dict, log_dir: str, args) -> None:
     except KeyboardInterrupt:
         clean_up()
         raise SystemExit(f"\n{PROG}: interrupted before training started; nothing saved.") from None
-    except NonFiniteTraining as stop:
+    except (NonFiniteTraining, PhysicsOverflowStopped) as stop:
         clean_up()
         raise SystemExit(f"{PROG}: {stop}") from None
     except (ValueError, FileNotFoundError, FileExistsError, ImportError, DistributedSetupError) as error:

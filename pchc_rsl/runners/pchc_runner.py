@@ -14,6 +14,7 @@ from tensordict import TensorDict
 from rsl_rl.env import VecEnv
 from rsl_rl.runners import OnPolicyRunner
 
+from pchc_rsl.envs.warp_settings import PhysicsOverflow
 from pchc_rsl.export.onnx_export import export_onnx
 from pchc_rsl.runners.checkpoint import load_checkpoint
 from pchc_rsl.runners.iteration_log import IterationLogger
@@ -36,6 +37,11 @@ class NonFiniteTraining(TrainingStopped):
 
 class TrainingInterrupted(TrainingStopped):
     """Ctrl-C (KeyboardInterrupt); the state at the interrupt was saved first."""
+
+
+class PhysicsOverflowStopped(TrainingStopped):
+    """The physics dropped contacts or constraint rows in a rollout (a MuJoCo Warp buffer too small); nothing of
+    that rollout was learned from or saved."""
 
 
 class PCHCRunner(OnPolicyRunner):
@@ -71,6 +77,8 @@ class PCHCRunner(OnPolicyRunner):
         """The last iteration that finished (and passed the finite check) in this process."""
         self._completed_state: dict | None = None
         """What a checkpoint of ``completed_iteration`` holds, copied when it finished (what Ctrl-C saves)."""
+        self._collecting = self.current_learning_iteration
+        """The iteration whose rollout runs (or ran last)."""
 
     # ---- training loop additions -------------------------------------------------------------------------------
 
@@ -86,6 +94,14 @@ class PCHCRunner(OnPolicyRunner):
         except NonFiniteTraining:
             self.logger.stop_logging_writer()
             raise
+        except PhysicsOverflow as error:
+            self.logger.stop_logging_writer()
+            kept = f"the last checkpoint, {self.last_good_checkpoint}, is intact" if self.last_good_checkpoint else (
+                "no checkpoint was written")
+            task = self.config.get("task", type(self.env).__name__)
+            raise PhysicsOverflowStopped(
+                f"{task}: stopped in iteration {self._collecting} without learning from it: "
+                f"{error} ({kept})", self.last_good_checkpoint) from None
         finally:
             self._close_writer()
             shutdown_process_group()
@@ -106,6 +122,7 @@ class PCHCRunner(OnPolicyRunner):
         start_it = self.current_learning_iteration
         total_it = start_it + num_learning_iterations
         for it in range(start_it, total_it):
+            self._collecting = it
             start = time.time()
             obs = self.rollout(obs)
             stop = time.time()
