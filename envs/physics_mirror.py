@@ -30,13 +30,14 @@ class MirroredPhysics:
     """Wraps an env's physics in place: each call (``step``, ``set_qpos_qvel``, ``sanitize``) is made on it and on
     every mirror, and what the env wrote into qpos, qvel or the body forces since the last call is written into the
     mirrors too. A mirror with a ``start_offset`` ([1, nq]) starts every reset that far from the env's state.
-    ``resync=True`` copies the env's state into the mirrors after every step (each step then starts from the same
-    state: the differences are those of one step), keeping in ``stepped`` each mirror's (qpos, qvel) as its own
-    step left them."""
+    After every step ``stepped`` holds each mirror's (qpos, qvel) as the step left them and ``reference`` the env's
+    physics' (before the env resets any of its envs). ``resync=True`` then copies the env's state into the mirrors:
+    each step starts from the same state, and the differences are those of one step."""
 
     def __init__(self, physics, mirrors: list, resync: bool = False) -> None:
         self.physics, self.mirrors, self.resync = physics, mirrors, resync
         self.stepped: list[tuple[torch.Tensor, torch.Tensor]] = []
+        self.reference: tuple[torch.Tensor, torch.Tensor] | None = None
         self._remember()
         self._step, self._reset, self._sanitize = physics.step, physics.set_qpos_qvel, physics.sanitize
         physics.step, physics.set_qpos_qvel, physics.sanitize = self.step, self.set_qpos_qvel, self.sanitize
@@ -56,11 +57,12 @@ class MirroredPhysics:
     def step(self, ctrl) -> None:
         self._carry_writes()
         self._step(ctrl)
+        self.reference = (self.physics.qpos.clone(), self.physics.qvel.clone())
         self.stepped = []
         for mirror in self.mirrors:
             mirror.step(torch.as_tensor(ctrl).to(mirror.qpos))
+            self.stepped.append((mirror.qpos.clone(), mirror.qvel.clone()))
             if self.resync:
-                self.stepped.append((mirror.qpos.clone(), mirror.qvel.clone()))
                 mirror.qpos.copy_(self.physics.qpos.to(mirror.qpos))
                 mirror.qvel.copy_(self.physics.qvel.to(mirror.qvel))
         self._remember()
