@@ -18,12 +18,13 @@ def evaluation_config(config: dict, preset: str | None, num_envs: int, seed: int
                       device: str = "cpu"):
     """A checkpoint's saved config as pchc-eval runs it: the task's evaluation preset with this push preset (None:
     the config as trained), then the ``KEY=VALUE`` overrides (a deployment shift, another push), lambda not held."""
-    from pchc_rsl.training.build import restore_config
+    from pchc_rsl.training.build import placed, restore_config
     from pchc_rsl.training.overrides import apply_overrides
 
     cfg = restore_config(config)
     if preset is not None:
         cfg = evaluation_preset(cfg, preset, TASK_EVALUATION[config["task"]])
+    placed(cfg, device)  # a GPU-trained policy on the CPU: C MuJoCo (env.physics=warp keeps Warp)
     apply_overrides(cfg, list(overrides))
     cfg.num_envs, cfg.seed, cfg.device, cfg.fixed_preference = num_envs, seed, device, None
     return cfg
@@ -129,7 +130,7 @@ def load_policy(path: str, num_envs: int, seed: int, episode_length_s: float | N
 
     Returns (task, env, policy); ValueError (one line) for a task without an evaluation preset or a bad override."""
     from pchc_rsl.runners import load_checkpoint
-    from pchc_rsl.training.build import restore_config
+    from pchc_rsl.training.build import placed, restore_config
     from pchc_rsl.training.overrides import apply_overrides
 
     config = load_checkpoint(path).get("config") or {}
@@ -149,6 +150,7 @@ def load_policy(path: str, num_envs: int, seed: int, episode_length_s: float | N
         if push_every is not None:
             interval = push_every if push_every > 0 else 1e9  # 0: never by itself, still on a key press
             cfg.env.push.interval_s = (interval, interval)
+    placed(cfg, "cpu")
     apply_overrides(cfg, list(overrides))
     cfg.num_envs, cfg.seed, cfg.device = num_envs, seed, "cpu"
     runner, policy = loaded_policy(path, cfg)

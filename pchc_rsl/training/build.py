@@ -74,6 +74,16 @@ def restore_config(saved: dict) -> TaskConfig:
     return cfg
 
 
+def placed(cfg: TaskConfig, device: str) -> TaskConfig:
+    """``cfg`` run on ``device``: a policy trained on MuJoCo Warp on a GPU is evaluated, exported and played on a
+    CPU with C MuJoCo (the physics backend is a matter of training speed, not part of the task; Warp's CPU device is
+    for tests); on a GPU, Warp stays."""
+    cfg.device = device
+    if getattr(cfg.env, "physics", None) == "warp" and torch.device(device).type != "cuda":
+        cfg.env.physics = "mujoco"
+    return cfg
+
+
 def saved_config(path: str, loaded: dict) -> dict:
     """The resolved config pchc-train stored in a loaded checkpoint; ValueError naming the file if there is none."""
     config = loaded.get("config") or {}
