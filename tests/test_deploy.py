@@ -1074,3 +1074,21 @@ def test_the_summary_warns_when_lowstate_arrives_slower_than_the_robot_sends_it(
     slow = "\n".join(summary_lines(report(21128), None))
     assert "(278 per second, below the G1's 500: a simulator that steps slower or runs behind real time" in slow
     assert "(500 per second)" in "\n".join(summary_lines(report(38000), None))
+
+
+def test_the_summary_gives_the_end_point_against_the_commanded_one():
+    """In a simulator: both points and how far apart; on a robot (no position in LowState): the commanded point
+    and the heading change its IMU measured."""
+    from pchc_rsl.cli.deploy import summary_lines
+    from pchc_rsl.deploy.end_point import end_point_report
+
+    base = {"reason": "", "final_mode": "DAMPING", "policy_seconds": 10.0, "messages_sent": 500,
+            "messages_received": 500}
+    simulated = end_point_report((5.0, 0.0, 0.0), (2.08, -3.42, math.radians(-138.1)))
+    assert simulated["off_m"] == pytest.approx(math.hypot(5.0 - 2.08, 3.42), abs=1e-3)
+    text = "\n".join(summary_lines(base | {"end_point": simulated}, None))
+    assert ("end point: (+2.08 m, -3.42 m, -138 deg) (forward, left, heading from the policy's start); the commands "
+            "lead to (+5.00 m, +0.00 m, +0 deg): 4.50 m apart, heading -138 deg off") in text
+    robot = end_point_report((5.0, 0.0, 0.0), None, math.radians(-12.0))
+    text = "\n".join(summary_lines(base | {"end_point": robot}, None))
+    assert "the commands lead to (+5.00 m, +0.00 m, +0 deg)" in text and "the IMU turned -12 deg" in text
