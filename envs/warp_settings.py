@@ -11,10 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-
-class PhysicsOverflow(RuntimeError):
-    """A Warp buffer overflowed: contacts or constraint rows were dropped, so the physics was wrong. (Here, not in
-    physics_warp.py, so that a runner can catch it without importing Warp.)"""
+from pchc_rsl.utils.physics_overflow import PhysicsOverflow  # noqa: F401 - what physics_warp.py raises
 
 
 @dataclass

@@ -14,7 +14,7 @@ MAPPED = ("envs", "robots", "configs")
 """Top-level folders installed as pchc_rsl.<folder>."""
 
 LAYERS = [
-    "utils",  # helpers that know nothing of PCHC
+    "utils",  # what knows nothing of PCHC
     "preference", "pareto",  # the paper's math
     "storage", "modules", "amp", "algorithms",  # the learning, laid out as rsl-rl's
     "export",  # the ONNX file a robot runs

@@ -14,13 +14,13 @@ from tensordict import TensorDict
 from rsl_rl.env import VecEnv
 from rsl_rl.runners import OnPolicyRunner
 
-from pchc_rsl.envs.warp_settings import PhysicsOverflow
 from pchc_rsl.export.onnx_export import export_onnx
 from pchc_rsl.runners.checkpoint import load_checkpoint
 from pchc_rsl.runners.iteration_log import IterationLogger
 from pchc_rsl.utils.distributed import init_process_group, shutdown_process_group, world
 from pchc_rsl.utils.files import atomic_write
 from pchc_rsl.utils.finite import RolloutNaNCheck, first_non_finite_tensor, first_non_finite_value
+from pchc_rsl.utils.physics_overflow import PhysicsOverflow
 
 
 class TrainingStopped(Exception):
