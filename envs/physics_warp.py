@@ -27,7 +27,8 @@ import torch
 
 from pchc_rsl.envs.warp_device import (TESTED_MUJOCO_WARP, cuda_graph_problem, mujoco_warp_version_note,
                                        require_warp_cuda)
-from pchc_rsl.envs.warp_settings import PhysicsOverflow, WarpSettings
+from pchc_rsl.envs.warp_settings import WarpSettings
+from pchc_rsl.utils.physics_overflow import PhysicsOverflow
 
 try:
     import mujoco_warp as mjw
@@ -173,7 +174,8 @@ class WarpMuJoCo:
         self._record_view = wp.to_torch(self._record)
         """Folded on the device after every physics step since the last report: the slots named above."""
         self._world_steps = 0
-        """World-steps since the last report (host count: the share of limit hits needs no device read)."""
+        """Solver runs of all worlds (physics steps, and a reset's forward pass) since the last report, counted on
+        the host: the share of limit hits needs no device read."""
         self.diverged = torch.zeros(num_envs, dtype=torch.bool, device=self.device)
         """Always False: Warp does not reset a diverged world (the env's NaN and velocity checks catch it)."""
         self._graphs: dict[str, object] = {}
@@ -194,6 +196,7 @@ class WarpMuJoCo:
                                                     self.device, self.eager_reason)
         self._forward_and_record(slice(None))
         self._record_view.zero_()  # the model's own pose (qpos0) is no state the env simulates
+        self._world_steps = 0
 
     def _fold_record(self) -> None:
         d = self.data
@@ -220,8 +223,9 @@ class WarpMuJoCo:
 
     def overflow_report(self) -> dict[str, float]:
         """Since the last call, read once (one host sync): the largest constraint rows of one world, solver
-        iterations and contacts (all worlds), and the share of world-steps whose solver or line search stopped at
-        its iteration limit (%); PhysicsOverflow when a buffer overflowed (results were dropped)."""
+        iterations and contacts (all worlds), and the share of solver runs (one per world and physics step or reset)
+        that stopped at the solver's or the line search's iteration limit (%); PhysicsOverflow when a buffer
+        overflowed (results were dropped)."""
         record = self._record_view.tolist()
         self._record_view.zero_()
         world_steps, self._world_steps = max(self._world_steps, 1), 0
@@ -273,9 +277,9 @@ class WarpMuJoCo:
             given = getattr(self.settings, setting)
             if needed > given:
                 raise ValueError(f"env.warp.{setting}={given} is too small for this task: one robot at its start "
-                                 f"needs {needed} {what}; set env.warp.{setting} to at least {needed} (robots lying "
-                                 f"on the floor need about twice a standing one's; the default is "
-                                 f"{getattr(WarpSettings(), setting)}).")
+                                 f"needs {needed} {what}; set env.warp.{setting} to at least {needed}, better "
+                                 f"{_round_up(2 * needed)} (a robot lying on the floor needs about twice what a "
+                                 f"standing one does).")
 
     def _launch(self, name: str, work_fn) -> None:
         """Run ``work_fn`` (Warp launches only): eagerly on the CPU; on CUDA captured once as a graph named ``name``
@@ -341,6 +345,7 @@ class WarpMuJoCo:
         """mjw.forward on every world (the state stays), then every substep slot of these worlds' records holds
         their current sensors and joint velocities."""
         self._launch("forward", self._forward)
+        self._world_steps += self.num_envs
         self.substep_sensors[ids] = self._sensordata[ids].unsqueeze(1)
         self.substep_qvel[ids] = self.qvel[ids].unsqueeze(1)
 

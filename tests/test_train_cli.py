@@ -461,7 +461,7 @@ def test_a_mistyped_task_gets_the_closest_one_and_a_fresh_run_echoes_its_overrid
 def test_a_physics_overflow_stops_training_naming_the_setting_and_keeps_the_checkpoints(tmp_path, monkeypatch, capsys):
     """A MuJoCo Warp buffer that overflows in iteration 2 stops the run in one line: the task, the buffer and the
     size to set (the physics' report), and the last checkpoint, which is whole."""
-    from pchc_rsl.envs.warp_settings import PhysicsOverflow
+    from pchc_rsl.utils.physics_overflow import PhysicsOverflow
 
     reports = {"n": 0}
 
