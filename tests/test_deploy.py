@@ -229,11 +229,11 @@ def test_no_policy_command_before_the_ramp_has_finished():
 
 
 class FakeRobot:
-    """A robot that stands still in the default pose and whose state stops arriving at ``silent_after`` (s);
-    records what was sent and when."""
+    """A robot in the default pose whose state stops arriving at ``silent_after`` (s), its IMU reading ``gyro(t)``
+    (still: zero); records what was sent and when."""
 
-    def __init__(self, silent_after: float = 1e9, interrupt_at: float = 1e9) -> None:
-        self.t, self.silent_after, self.interrupt_at = 0.0, silent_after, interrupt_at
+    def __init__(self, silent_after: float = 1e9, interrupt_at: float = 1e9, gyro=lambda t: np.zeros(3)) -> None:
+        self.t, self.silent_after, self.interrupt_at, self.gyro = 0.0, silent_after, interrupt_at, gyro
         self.sent, self.received, self.loop = [], 0, None
         self.last_state: RobotState | None = None
         self.remote = Remote()  # what the operator holds on the G1's remote
@@ -244,6 +244,7 @@ class FakeRobot:
     def read(self):
         if self.t <= self.silent_after:
             self.last_state = standing_state(received_at=self.t)
+            self.last_state.gyro = np.asarray(self.gyro(self.t), float)
             self.last_state.remote = self.remote.encode()
         return self.last_state
 
@@ -442,6 +443,25 @@ def test_unitree_bands_last_force_stays_after_the_release_only_when_told(stays):
         assert not left.any() and sim.band_force_left == [0.0, 0.0, 0.0]
 
 
+BAND_SETTLED_S = 1.38
+"""s after unitree_mujoco's band (12 presses) lets go of menagerie's G1 in HOLD until both its gyro and its tilt rate
+have stayed below 0.05 rad/s for 1 s: they read up to 0.19 rad/s in the first 0.5 s and stay below from 0.38 s on
+(measured on the simulator's own state, without the deploy's check, in docs/deploy.md)."""
+
+
+@needs_g1
+def test_the_policy_waits_until_the_robot_stands_still_after_unitrees_band_lets_go(tmp_path):
+    """The automatic sequence asks for the policy 0.12 s after the band lets go (HOLD from 2.52 s, --hold-seconds
+    3.6, release at 6 s), while the robot sways: it starts only once the sway has settled, at 6 s + BAND_SETTLED_S."""
+    report = deploy_report(tmp_path / "band.json", WALK_ONNX, "--mujoco", "--unitree-band", "12", "--hold-up", "6",
+                           "--hold-seconds", "3.6", "--seconds", "0.1", timeout=600)
+    hold_at, policy_at = report["events"][2][0], report["events"][3][0]
+    assert hold_at + 3.6 < 6.2  # asked for while the robot still swung
+    assert policy_at >= 6.0 + BAND_SETTLED_S - 0.05
+    assert report["stand_still"]["waited_s"] == pytest.approx(policy_at - (hold_at + 3.6), abs=0.021)
+    assert not report["fell"]
+
+
 @needs_g1
 def test_a_scene_in_the_sdk_motor_order_is_simulated_and_any_other_refused(tmp_path):
     """--scene takes a G1 whose 29 torque motors follow unitree_sdk2's order (unitree_mujoco's scene_29dof.xml is
@@ -479,6 +499,52 @@ def test_ctrl_c_damps_then_exits():
     after = [cmd for t, cmd in robot.sent if t >= 4.0]
     assert after and all(is_damping(cmd) for cmd in after)
     assert robot.sent[-1][0] >= 4.0 + 0.5 - 0.02  # half a second of damping before the exit
+
+
+def swaying_until(t_still: float, rate: float = 0.1):
+    """An IMU that reads a pitch rate of ``rate`` rad/s until ``t_still`` and nothing after."""
+    return lambda t: np.array([0.0, rate if t < t_still - 1e-9 else 0.0, 0.0])
+
+
+@pytest.mark.parametrize("asked_by", ["auto", "key"])
+def test_the_policy_starts_once_the_robot_stands_still(asked_by):
+    """A robot that sways at 0.1 rad/s until 4.0 s: HOLD begins at 2.5 s (the ramp from 0.5 s), the policy is asked
+    for at 3.5 s (the automatic sequence's 1 s of hold, or the key p, pressed twice), said to wait once, and starts
+    at 5.0 s, when the gyro has read 0 for 1 s; asked for again while it waits, nothing changes."""
+    lines = []
+    robot = FakeRobot(gyro=swaying_until(4.0))
+    run = fake_deployment(robot, log=lines.append)
+    if asked_by == "key":
+        run.auto = None
+        presses = {0.5: "s", 3.5: "p", 4.2: "p"}
+        run.inputs = [type("Keys", (), {"pending": lambda _: [presses.pop(k) for k in list(presses)
+                                                             if abs(k - robot.t) < 1e-9]})()]
+    while robot.t < 5.2:
+        run.tick()
+        robot.wait_tick()
+    assert [(t, mode) for t, mode, _ in run.record.events[:4]] == [(0.0, "ZERO_TORQUE"), (0.5, "RAMP"), (2.5, "HOLD"),
+                                                                   (5.0, "POLICY")]
+    waiting = [line for line in lines if line.startswith("waiting for the robot to stand still")]
+    assert waiting == ["waiting for the robot to stand still: gyro 0.100 rad/s (bound 0.05), tilt rate 0.000/s "
+                       "(bound 0.05), for 1 s"]
+    assert "the robot stands still after 1.5 s: gyro 0.000 rad/s" in "\n".join(lines)
+    assert run.waited_s == pytest.approx(1.5)
+
+
+def test_the_stand_still_check_can_be_skipped_and_a_still_robot_does_not_wait():
+    """Without the check the swaying robot's policy starts when asked (3.5 s); a robot still from the start starts
+    it there too, without a word about waiting."""
+    from pchc_rsl.deploy.deployment import AutoSequence, Deployment
+    from pchc_rsl.deploy.policy_step import PolicyStep
+
+    for robot, wait_still in ((FakeRobot(gyro=swaying_until(4.0)), False), (FakeRobot(), True)):
+        lines = []
+        run = Deployment(PolicyStep(WALK_ONNX), robot, [0.5, 0.5], (0.5, 0.0, 0.0), AutoSequence(),
+                         log=lines.append, wait_still=wait_still)
+        run.safety.collapse_s = np.inf
+        run.run(seconds=0.1)
+        assert run.record.events[3][:2] == (3.5, "POLICY")
+        assert not any("stand still" in line for line in lines)
 
 
 def test_the_remote_starts_the_robot_and_moves_lambda_and_the_command_once_per_press():
@@ -1049,10 +1115,16 @@ def test_the_browser_console_steers_a_deploy(steering_onnx):
             run.tick()
         assert run.preference.value.tolist() == pytest.approx([0.2, 0.8])
         assert run.command.value.tolist() == pytest.approx([0.3, -0.2, 0.4])
-        console.buttons["p"].value = True
-        run.tick()
-        assert run.safety.mode is Mode.POLICY
+        console.buttons["p"].value = True  # HOLD began a tick ago: the policy waits 1 s for the robot to stand still
         for _ in range(15):  # the console's status is refreshed 4 times a second
+            robot.wait_tick()
+            run.tick()
+        assert run.safety.mode is Mode.HOLD and "waiting for the robot to stand still" in console.status.content
+        for _ in range(40):
+            robot.wait_tick()
+            run.tick()
+        assert run.safety.mode is Mode.POLICY
+        for _ in range(15):
             robot.wait_tick()
             run.tick()
         assert "policy" in console.status.content and "stride **0.80**" in console.preference_text.content
@@ -1074,6 +1146,22 @@ def test_the_summary_warns_when_lowstate_arrives_slower_than_the_robot_sends_it(
     slow = "\n".join(summary_lines(report(21128), None))
     assert "(278 per second, below the G1's 500: a simulator that steps slower or runs behind real time" in slow
     assert "(500 per second)" in "\n".join(summary_lines(report(38000), None))
+
+
+def test_the_summary_says_how_long_the_policy_waited_for_the_robot_to_stand_still():
+    from pchc_rsl.cli.deploy import summary_lines
+
+    base = {"reason": "", "final_mode": "DAMPING", "policy_seconds": 10.0, "messages_sent": 500,
+            "messages_received": 500,
+            "events": [[0.0, "ZERO_TORQUE", ""], [0.5, "RAMP", ""], [2.5, "HOLD", ""], [7.96, "POLICY", ""]]}
+    bounds = {"gyro_bound": 0.05, "tilt_rate_bound": 0.05, "window_s": 1.0}
+    waited = summary_lines(base | {"stand_still": bounds | {"waited_s": 4.46}}, None)
+    assert waited[1] == ("  the policy waited 4.5 s in HOLD for the robot to stand still (gyro below 0.05 rad/s and "
+                         "tilt rate below 0.05/s for 1 s)")
+    assert not any("stand still" in line for line in summary_lines(base | {"stand_still": bounds | {"waited_s": 0.0}},
+                                                                     None))
+    skipped = summary_lines(base | {"stand_still": None}, None)
+    assert skipped[1] == "  the policy started without waiting for the robot to stand still (--skip-stand-still-check)"
 
 
 def test_the_summary_gives_the_end_point_against_the_commanded_one():

@@ -13,6 +13,7 @@ import tempfile
 
 from pchc_rsl.cli import arguments
 from pchc_rsl.cli.sim_bridge import add_simulation_arguments, check_band_arguments
+from pchc_rsl.deploy.stand_still import GYRO_BOUND, WINDOW_S
 
 PROG = "pchc-deploy"
 
@@ -68,8 +69,13 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--seconds", type=arguments.positive_float,
                         help="--sim/--mujoco: seconds of policy (default 10); robot: stop after this long")
     parser.add_argument("--hold-seconds", type=arguments.positive_float, default=1.0, metavar="S",
-                        help="--sim/--mujoco: seconds in HOLD before the policy starts (default 1); with --hold-up "
-                        "shorter than the whole start, the robot stands on its own for the rest")
+                        help="--sim/--mujoco: seconds in HOLD at least before the policy starts (default 1); it starts "
+                        "once the robot stands still; with --hold-up shorter than the whole start, the robot stands "
+                        "on its own for the rest")
+    parser.add_argument("--skip-stand-still-check", action="store_true",
+                        help="for experiments: start the policy when asked, even while the robot still sways in HOLD "
+                        f"(by default the policy waits until the IMU reads below {GYRO_BOUND:g} rad/s for "
+                        f"{WINDOW_S:g} s; a walker started while the robot sways can step into another gait)")
     parser.add_argument("--report", metavar="FILE.json", help="write the run's report as JSON (mode changes, "
                         "messages and rates, loop timing; with --sim/--mujoco: fell, distance, real-time figures)")
     add_simulation_arguments(parser)
@@ -173,7 +179,7 @@ def deploy(args, seconds: float | None, setup: dict) -> dict:
                           hold_up_s=args.hold_up, pd_on_arrival=args.pd_on_arrival, scene=args.scene,
                           unitree_band=args.unitree_band, band_force_stays=args.band_force_stays)
         run = Deployment(policy, InProcessRobot(sim, policy.control_period, args.lowcmd_hz), preference, command, auto,
-                         sequence=sequence)
+                         sequence=sequence, wait_still=not args.skip_stand_still_check)
         run.run(seconds)
         return with_fall(run.report(list(sim.trace)), sim.fell, sim.driven_distance()) | {
             "min_height_after_release": sim.min_height_after_release, "band_force_left": sim.band_force_left}
@@ -209,7 +215,7 @@ def deploy(args, seconds: float | None, setup: dict) -> dict:
             inputs.append(console)
             print(f"{PROG}: console at {console.url}", flush=True)
         run = Deployment(policy, WallClockRobot(dds, policy.control_period), preference, command, auto, inputs,
-                         sequence=sequence)
+                         sequence=sequence, wait_still=not args.skip_stand_still_check)
         try:
             run.run(seconds, no_state_hint=no_state_hint(dds, interface, domain, args.sim),
                     no_state_timeout=30.0 if args.sim else 3.0)  # the bridge takes seconds to start on a busy machine
@@ -271,6 +277,20 @@ def lowstate_rate_note(report: dict) -> str:
     return note + ")"
 
 
+def stand_still_line(report: dict) -> str:
+    """How the policy's start waited for the robot to stand still ('' when it did not have to)."""
+    still = report.get("stand_still", {})
+    if "POLICY" not in [event[1] for event in report.get("events", [])]:
+        return ""
+    if still is None:
+        return "  the policy started without waiting for the robot to stand still (--skip-stand-still-check)"
+    if not still.get("waited_s"):
+        return ""
+    return (f"  the policy waited {still['waited_s']:.1f} s in HOLD for the robot to stand still (gyro below "
+            f"{still['gyro_bound']:g} rad/s and tilt rate below {still['tilt_rate_bound']:g}/s for "
+            f"{still['window_s']:g} s)")
+
+
 def end_point_words(end: dict) -> str:
     """Where the pelvis ended against where the commands lead, both from the policy's start pose."""
     def pose(p):
@@ -288,6 +308,8 @@ def summary_lines(report: dict, report_file: str | None) -> list[str]:
     """The end of a run for the operator's screen; the whole report is the --report JSON."""
     reason = f" ({report['reason']})" if report["reason"] else ""
     lines = [f"{PROG}: ended in {report['final_mode'].lower()}{reason} after {report['policy_seconds']:.1f} s of policy"]
+    if still := stand_still_line(report):
+        lines.append(still)
     stream = report.get("lowcmd")
     if stream is not None:
         priority = ("real-time priority" if stream["realtime_priority"] else

@@ -20,6 +20,7 @@ from pchc_rsl.deploy.policy_step import PolicyStep
 from pchc_rsl.deploy.robot_io import MotorCommand, Remote, RobotState
 from pchc_rsl.deploy.safety import Mode, SafetyStateMachine
 from pchc_rsl.deploy.simulator import G1Simulator
+from pchc_rsl.deploy.stand_still import StandStill
 
 NO_STATE_TIMEOUT_S = 3.0
 STEERING_KEYS = {"w": (0, SPEED_STEP), "x": (0, -SPEED_STEP), "a": (1, SPEED_STEP), "d": (1, -SPEED_STEP),
@@ -108,17 +109,20 @@ class WallClockRobot:
 
 @dataclass
 class AutoSequence:
-    """The whole start without keys (--sim, tests): zero torque, ramp, hold, then the policy until the end."""
+    """The whole start without keys (--sim, tests): zero torque, ramp, hold, then the policy until the end. The hold
+    lasts at least ``hold_s``; the policy is asked for then and starts once the robot stands still."""
 
     zero_torque_s: float = 0.5
     hold_s: float = 1.0
 
-    def request(self, machine: SafetyStateMachine, state: RobotState | None, now: float) -> None:
+    def due(self, machine: SafetyStateMachine, now: float) -> Mode | None:
+        """The mode to ask for now, if any."""
         since = now - machine.mode_since
         if machine.mode is Mode.ZERO_TORQUE and since >= self.zero_torque_s:
-            machine.request(Mode.RAMP, now, state)
-        elif machine.mode is Mode.HOLD and since >= self.hold_s:
-            machine.request(Mode.POLICY, now, state)
+            return Mode.RAMP
+        if machine.mode is Mode.HOLD and since >= self.hold_s:
+            return Mode.POLICY
+        return None
 
 
 @dataclass
@@ -132,10 +136,11 @@ class DeployLog:
 class Deployment:
     def __init__(self, policy: PolicyStep, robot, preference, command=(0.0, 0.0, 0.0),
                  auto: AutoSequence | None = None, inputs: list = (), log=print,
-                 sequence: CommandSequence | None = None) -> None:
+                 sequence: CommandSequence | None = None, wait_still: bool = True) -> None:
         """``command``: (forward, lateral, yaw rate) to start with; ``inputs``: sources with ``pending()`` -> keys
         ('s', 'p', ...) or (name, value) settings: the terminal's KeyReader, the browser console; ``sequence``: the
-        command over time from the policy's start, set as the console sets it (so clipped to the same ranges)."""
+        command over time from the policy's start, set as the console sets it (so clipped to the same ranges);
+        ``wait_still``: the policy, asked for in HOLD, starts once the robot stands still (False: at once)."""
         self.policy, self.robot, self.auto, self.inputs, self.log = policy, robot, auto, list(inputs), log
         joints = policy.joints
         kp, kd = MOTOR_HOLD_KP.copy(), MOTOR_HOLD_KD.copy()
@@ -154,6 +159,9 @@ class Deployment:
         self.quit_requested = False
         self.policy_since: float | None = None
         self.policy_until: float | None = None
+        self.stand_still = StandStill() if wait_still else None
+        self.policy_asked_at: float | None = None  # a request for the policy waiting for the robot to stand still
+        self.waited_s = 0.0  # how long the policy's start waited for it
         self.started = robot.now()
         self._shown = -1.0
 
@@ -172,13 +180,39 @@ class Deployment:
         if sticks is not None:
             self._steer(sticks, now)
         if self.auto is not None:
-            self.auto.request(self.safety, state, now)
+            due = self.auto.due(self.safety, now)
+            if due is Mode.RAMP:
+                self.safety.request(Mode.RAMP, now, state)
+            elif due is Mode.POLICY and self.policy_asked_at is None:
+                self._ask_policy(state, now)
+        if self.policy_asked_at is not None:
+            self._start_when_still(state, now)
         if now - self._shown >= 0.25:
             command = self.command.value.copy() if self.policy.uses_command else None
+            reason = (f"waiting for the robot to stand still: {self.stand_still}" if self.policy_asked_at is not None
+                      else self.safety.reason)
             for source in self.inputs:
                 if hasattr(source, "show"):
-                    source.show(self.safety.mode.value, self.safety.reason, self.preference.value, command)
+                    source.show(self.safety.mode.value, reason, self.preference.value, command)
             self._shown = now
+
+    def _ask_policy(self, state: RobotState | None, now: float) -> None:
+        """Start the policy, in HOLD once the robot stands still: until then the request is kept (said once on the
+        console) and the policy starts by itself when it does."""
+        if self.stand_still is None or self.safety.mode is not Mode.HOLD or self.stand_still.still:
+            self.safety.request(Mode.POLICY, now, state)
+        elif self.policy_asked_at is None:
+            self.policy_asked_at = now
+            self.log(f"waiting for the robot to stand still: {self.stand_still}")
+
+    def _start_when_still(self, state: RobotState | None, now: float) -> None:
+        if self.safety.mode is not Mode.HOLD:  # damped meanwhile: the request goes with the hold
+            self.policy_asked_at = None
+        elif self.stand_still.still:
+            self.waited_s = now - self.policy_asked_at
+            self.policy_asked_at = None
+            self.log(f"the robot stands still after {self.waited_s:.1f} s: {self.stand_still}")
+            self.safety.request(Mode.POLICY, now, state)
 
     def _steer(self, sticks: tuple[float, float, float], now: float) -> None:
         """The remote's sticks own the command while any is off centre; letting them all go stops the robot. The
@@ -210,7 +244,7 @@ class Deployment:
         elif key == "s":
             self.safety.request(Mode.RAMP, now, state)
         elif key == "p":
-            self.safety.request(Mode.POLICY, now, state)
+            self._ask_policy(state, now)
         elif key == " ":
             self.safety.request(Mode.DAMPING, now, reason="operator")
         elif key == "Q":
@@ -239,6 +273,7 @@ class Deployment:
         now = self.robot.now()
         state = self.robot.read()
         mode_before = self.safety.mode
+        self._watch_stillness(state, now)
         self._operator(state, now)
         targets = None
         if self.safety.mode is Mode.POLICY:
@@ -261,8 +296,16 @@ class Deployment:
             reason = f" ({self.safety.reason})" if self.safety.reason else ""
             self.log(f"{self.safety.mode.value}{reason}")
             self.record.events.append((round(now - self.started, 3), self.safety.mode.name, self.safety.reason))
+            if self.stand_still is not None:
+                self.stand_still.reset()
+                self._watch_stillness(state, now)  # the state HOLD began with is its first sample
         if cmd is not None:
             self.robot.send(cmd)
+
+    def _watch_stillness(self, state: RobotState | None, now: float) -> None:
+        """In HOLD, each state is a sample of whether the robot stands still."""
+        if self.stand_still is not None and self.safety.mode is Mode.HOLD and state is not None:
+            self.stand_still.update(now, state.gyro, state.projected_gravity())
 
     def _follow_sequence(self, state: RobotState, now: float) -> None:
         """The command sequence's row for this moment, set once when its row begins (keys may change it between)."""
@@ -343,7 +386,10 @@ class Deployment:
                "policy_seconds": (round((self.policy_until or self.robot.now()) - self.policy_since, 3)
                                   if self.policy_since is not None else 0),
                "messages_received": int(self.robot.received), "messages_sent": int(self.robot.sent),
-               "commands": int(getattr(self.robot, "commands", 0)), "events": self.record.events}
+               "commands": int(getattr(self.robot, "commands", 0)), "events": self.record.events,
+               "stand_still": None if self.stand_still is None else {
+                   "waited_s": round(self.waited_s, 3), "gyro_bound": self.stand_still.gyro_bound,
+                   "tilt_rate_bound": self.stand_still.tilt_rate_bound, "window_s": self.stand_still.window_s}}
         if self.record.commands and self.policy.uses_command:
             out["policy_commands"] = [[t, *command] for t, command in self.record.commands]  # at each change
             out["end_point"] = self.end_point(pose_trace)
