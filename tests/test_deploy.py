@@ -233,10 +233,16 @@ class FakeRobot:
     (still: zero); records what was sent and when."""
 
     def __init__(self, silent_after: float = 1e9, interrupt_at: float = 1e9, gyro=lambda t: np.zeros(3)) -> None:
+        from pchc_rsl.deploy.fresh_states import FreshStates
+
         self.t, self.silent_after, self.interrupt_at, self.gyro = 0.0, silent_after, interrupt_at, gyro
-        self.sent, self.received, self.loop = [], 0, None
+        self.sent, self.loop, self.states = [], None, FreshStates()
         self.last_state: RobotState | None = None
         self.remote = Remote()  # what the operator holds on the G1's remote
+
+    @property
+    def received(self) -> int:
+        return self.states.received
 
     def now(self):
         return self.t
@@ -246,6 +252,7 @@ class FakeRobot:
             self.last_state = standing_state(received_at=self.t)
             self.last_state.gyro = np.asarray(self.gyro(self.t), float)
             self.last_state.remote = self.remote.encode()
+            self.states.add(self.last_state)
         return self.last_state
 
     def send(self, cmd):
@@ -1026,7 +1033,7 @@ def test_a_sim_run_that_fell_behind_real_time_is_no_pass(monkeypatch, capsys, tm
               "timestep": 0.002, "kept_real_time": False, "commands_received": 4500, "commands_bad_crc": 0}
     report = {"task": "g1-walk", "final_mode": "DAMPING", "reason": "end of run", "policy_seconds": 5.0,
               "messages_sent": 4600, "messages_received": 2592, "events": [], "fell": False, "base_distance": 0.84,
-              "bridge": bridge}
+              "lowstate": {"received": 2592, "fresh": 2592, "seconds": 9.0}, "bridge": bridge}
     monkeypatch.setattr(deploy, "deploy", lambda *_: report)
     with pytest.raises(SystemExit) as exit_:
         deploy.main([WALK_ONNX, "--sim", "--seconds", "5", "--report", str(tmp_path / "r.json")])
@@ -1132,27 +1139,81 @@ def test_the_browser_console_steers_a_deploy(steering_onnx):
         console.close()
 
 
-def test_the_summary_warns_when_lowstate_arrives_slower_than_the_robot_sends_it():
-    """The LowState rate is the messages over the stream's run time (ticks x period); a simulator at 0.55 of real
-    time (278 a second) is named, a robot's 500 is not."""
+def lowstate_stream(messages: int, new_every: int, noise: float = 0.0, period: float = 0.002) -> list[RobotState]:
+    """LowState as a timer publishes it every ``period`` s, its tick counting up: the physics' latest reading, which
+    changes only every ``new_every`` messages (a simulator whose physics runs at 1 / new_every of its timer's
+    pace), plus sensor noise of ``noise`` rad on a robot."""
+    rng = np.random.default_rng(0)
+    stream = []
+    for i in range(messages):
+        state = standing_state(q=MOTOR_DEFAULT_POS + 1e-3 * (i // new_every), received_at=i * period)
+        state.q = state.q + noise * rng.standard_normal(NUM_MOTORS)
+        state.tick = 2 * i
+        stream.append(state)
+    return stream
+
+
+def test_lowstate_that_repeats_a_reading_is_counted_but_not_as_new():
+    """A timer at 500 Hz over physics at 250 Hz: 1251 messages in 2.5 s, 626 new readings (every other one, the
+    first included); a robot's noisy sensors make every message new."""
+    from pchc_rsl.deploy.fresh_states import FreshStates
+
+    for stream, fresh in ((lowstate_stream(1251, 2), 626), (lowstate_stream(1251, 1, noise=1e-4), 1251)):
+        states = FreshStates()
+        new = [states.add(state) for state in stream]
+        assert states.summary() == {"received": 1251, "fresh": fresh, "seconds": 2.5}
+        assert sum(new) == fresh and new[0]
+
+
+def lowstate_report(stream: list[RobotState]) -> dict:
+    """A deploy's report over DDS whose LowState was ``stream``."""
+    from pchc_rsl.deploy.fresh_states import FreshStates
+
+    states = FreshStates()
+    for state in stream:
+        states.add(state)
+    lowcmd = {"rate_hz": 500.0, "loop_overruns": 0, "loop_worst_late_ms": 0.0, "realtime_priority": True,
+              "loop_ticks": 1250, "loop_period_ms": 2.0}
+    return {"reason": "", "final_mode": "DAMPING", "policy_seconds": 1.0, "messages_sent": 1250,
+            "messages_received": states.received, "lowstate": states.summary(), "lowcmd": lowcmd}
+
+
+def test_the_summary_warns_when_new_lowstate_readings_come_slower_than_the_robot_sends_them():
+    """The message rate of a simulator whose physics lags its LowState timer looks like a robot's; the rate of new
+    readings (626 in 2.5 s) shows it and is named. A robot's is not."""
     from pchc_rsl.cli.deploy import summary_lines
 
-    def report(received):
-        stream = {"rate_hz": 500.0, "loop_overruns": 0, "loop_worst_late_ms": 0.0, "realtime_priority": True,
-                  "loop_ticks": 38000, "loop_period_ms": 2.0}
-        return {"reason": "", "final_mode": "DAMPING", "policy_seconds": 4.0, "messages_sent": 38000,
-                "messages_received": received, "lowcmd": stream}
+    repeated = "\n".join(summary_lines(lowstate_report(lowstate_stream(1251, 2)), None))
+    assert ("LowState: 1251 received (500 per second), 626 new readings (250 per second, below the G1's 500: a "
+            "simulator that steps slower or runs behind real time (a LowState timer of its own then repeats states)"
+            in repeated)
+    robot = "\n".join(summary_lines(lowstate_report(lowstate_stream(1251, 1, noise=1e-4)), None))
+    assert "LowState: 1251 received (500 per second), 1251 new readings (500 per second)" in robot
 
-    slow = "\n".join(summary_lines(report(21128), None))
-    assert "(278 per second, below the G1's 500: a simulator that steps slower or runs behind real time" in slow
-    assert "(500 per second)" in "\n".join(summary_lines(report(38000), None))
+
+def test_a_sim_run_whose_new_readings_lag_is_no_pass_though_the_bridge_kept_real_time():
+    """--sim's verdict takes the new readings the deploy saw against the bridge's physics rate: 250 a second from 500
+    Hz physics fails the 0.9 bound even where the bridge's own real-time factor passed; 500 a second passes."""
+    from pchc_rsl.deploy.real_time import behind_real_time, judged
+
+    bridge = {"sim_time": 2.5, "wall_s": 2.6, "real_time_factor": 0.962, "late_share": 0.01, "slowest_step_ms": 3.0,
+              "timestep": 0.002, "kept_real_time": True, "pd_on_arrival": False}
+    lagging = judged(bridge, lowstate_report(lowstate_stream(1251, 2))["lowstate"])
+    assert lagging["kept_real_time"] is False and lagging["fresh_states_per_second"] == pytest.approx(250.4)
+    assert behind_real_time(lagging).startswith(
+        "the deploy saw 250 new LowState readings a second from a simulation of 500 Hz physics (bound 0.9 x 500), "
+        "although the simulation kept 0.96 of real time")
+    every_step = lowstate_report(lowstate_stream(1251, 1))["lowstate"]
+    kept = judged(bridge, every_step)
+    assert kept["kept_real_time"] is True and kept["fresh_states_per_second"] == pytest.approx(500.4)
+    assert judged(bridge | {"kept_real_time": False}, every_step)["kept_real_time"] is False  # its own factor counts
 
 
 def test_the_summary_says_how_long_the_policy_waited_for_the_robot_to_stand_still():
     from pchc_rsl.cli.deploy import summary_lines
 
     base = {"reason": "", "final_mode": "DAMPING", "policy_seconds": 10.0, "messages_sent": 500,
-            "messages_received": 500,
+            "messages_received": 500, "lowstate": {"received": 500, "fresh": 500, "seconds": 10.0},
             "events": [[0.0, "ZERO_TORQUE", ""], [0.5, "RAMP", ""], [2.5, "HOLD", ""], [7.96, "POLICY", ""]]}
     bounds = {"gyro_bound": 0.05, "tilt_rate_bound": 0.05, "window_s": 1.0}
     waited = summary_lines(base | {"stand_still": bounds | {"waited_s": 4.46}}, None)
@@ -1171,7 +1232,7 @@ def test_the_summary_gives_the_end_point_against_the_commanded_one():
     from pchc_rsl.deploy.end_point import end_point_report
 
     base = {"reason": "", "final_mode": "DAMPING", "policy_seconds": 10.0, "messages_sent": 500,
-            "messages_received": 500}
+            "messages_received": 500, "lowstate": {"received": 500, "fresh": 500, "seconds": 10.0}}
     simulated = end_point_report((5.0, 0.0, 0.0), (2.08, -3.42, math.radians(-138.1)))
     assert simulated["off_m"] == pytest.approx(math.hypot(5.0 - 2.08, 3.42), abs=1e-3)
     text = "\n".join(summary_lines(base | {"end_point": simulated}, None))

@@ -184,6 +184,7 @@ def deploy(args, seconds: float | None, setup: dict) -> dict:
         return with_fall(run.report(list(sim.trace)), sim.fell, sim.driven_distance()) | {
             "min_height_after_release": sim.min_height_after_release, "band_force_left": sim.band_force_left}
 
+    from pchc_rsl.deploy.real_time import judged
     from pchc_rsl.deploy.sdk import DdsRobot
 
     bridge, bridge_report = None, None
@@ -239,7 +240,8 @@ def deploy(args, seconds: float | None, setup: dict) -> dict:
         trace = sim_report.pop("pose_trace")
         if "end_point" in report:
             report["end_point"] = run.end_point(trace)
-        report = with_fall(report, sim_report["fell"], sim_report["base_distance"]) | {"bridge": sim_report}
+        report = with_fall(report, sim_report["fell"], sim_report["base_distance"]) | {
+            "bridge": judged(sim_report, report["lowstate"])}
     return report
 
 
@@ -258,22 +260,23 @@ def with_fall(report: dict, fell_in_sim: bool, distance: float) -> dict:
 
 
 LOWSTATE_HZ = 500.0
-"""The rate at which a G1 publishes rt/lowstate."""
+"""The rate at which a G1 publishes rt/lowstate, each a new reading."""
 
 
 def lowstate_rate_note(report: dict) -> str:
-    """LowState per second over the run, with a warning when far below the robot's 500: a simulator that runs
-    slower than real time (the policy, paced by the wall clock, then acts on a robot in slow motion) or a lossy
-    link."""
-    stream = report["lowcmd"]
-    seconds = stream["loop_ticks"] * stream["loop_period_ms"] / 1000.0
-    if seconds < 1.0:
-        return ""
-    rate = report["messages_received"] / seconds
-    note = f" ({rate:.0f} per second"
-    if rate < 0.9 * LOWSTATE_HZ and "bridge" not in report:  # pchc-sim-bridge reports its own real-time factor
-        note += (f", below the G1's {LOWSTATE_HZ:.0f}: a simulator that steps slower or runs behind real time, "
-                 "whose robot the policy then drives in slow motion, or a lossy link")
+    """LowState and new readings among them per second, with a warning when the new readings come far below the
+    robot's 500: a simulator that runs slower than real time (the policy, paced by the wall clock, then acts on a
+    robot in slow motion; a simulator whose LowState timer keeps publishing repeats its last state) or a lossy link.
+    On a robot it is information: every reading is new."""
+    states = report["lowstate"]
+    if states["seconds"] < 1.0:
+        return f", {states['fresh']} new readings"
+    rate, fresh = states["received"] / states["seconds"], states["fresh"] / states["seconds"]
+    note = f" ({rate:.0f} per second), {states['fresh']} new readings ({fresh:.0f} per second"
+    if fresh < 0.9 * LOWSTATE_HZ and "bridge" not in report:  # pchc-sim-bridge's run is judged on it with its own
+        note += (f", below the G1's {LOWSTATE_HZ:.0f}: a simulator that steps slower or runs behind real time (a "
+                 "LowState timer of its own then repeats states), whose robot the policy then drives in slow motion, "
+                 "or a lossy link")
     return note + ")"
 
 
@@ -318,7 +321,8 @@ def summary_lines(report: dict, report_file: str | None) -> list[str]:
                      f" late ticks, worst {stream['loop_worst_late_ms']:.1f} ms; {priority}); LowState: "
                      f"{report['messages_received']} received{lowstate_rate_note(report)}")
     else:
-        lines.append(f"  LowCmd: {report['messages_sent']} applied; LowState: {report['messages_received']} read")
+        lines.append(f"  LowCmd: {report['messages_sent']} applied; LowState: {report['messages_received']} read, "
+                     f"{report['lowstate']['fresh']} new readings")
     if "loop" in report:
         loop = report["loop"]
         at = f" at {loop['worst_late_at_s']:.1f} s" if loop.get("worst_late_at_s") is not None else ""
@@ -339,7 +343,9 @@ def summary_lines(report: dict, report_file: str | None) -> list[str]:
         lines.append(f"  simulation: {bridge['sim_time']:.1f} s simulated in {bridge['wall_s']:.1f} s (real-time factor "
                      f"{bridge['real_time_factor']:.2f}), {bridge['late_share']:.0%} of physics steps late, slowest "
                      f"{bridge['slowest_step_ms']:.1f} ms; {bridge['commands_received']} LowCmd received, "
-                     f"{bridge['commands_bad_crc']} with a bad CRC")
+                     f"{bridge['commands_bad_crc']} with a bad CRC" + (
+                         "" if bridge.get("fresh_states_per_second") is None else
+                         f"; the deploy saw {bridge['fresh_states_per_second']:.0f} new LowState readings a second"))
     if report_file:
         lines.append(f"  report: {report_file}")
     return lines

@@ -13,6 +13,7 @@ import numpy as np
 from pchc_rsl.deploy.command_sequence import CommandSequence
 from pchc_rsl.deploy.end_point import end_point_report, in_start_frame, integrate_twist, pose_at, yaw_of
 from pchc_rsl.deploy.fixed_rate import FixedRateLoop
+from pchc_rsl.deploy.fresh_states import FreshStates
 from pchc_rsl.deploy.g1_motors import MOTOR_DEFAULT_POS, MOTOR_HOLD_KD, MOTOR_HOLD_KP, MOTOR_JOINTS
 from pchc_rsl.deploy.live_controls import (PREFERENCE_STEP, SPEED_STEP, YAW_STEP, Command, Preference, RemoteEdges,
                                            stick_command)
@@ -41,7 +42,8 @@ class InProcessRobot:
         self.sim, self.period = sim, period_s
         self.substeps = max(1, round(period_s / sim.model.opt.timestep))
         self.lowcmd_period = 1.0 / lowcmd_hz if lowcmd_hz else period_s
-        self.received = self.sent = self.commands = 0
+        self.sent = self.commands = 0
+        self.states = FreshStates()
         self.latest: MotorCommand | None = None
         self.next_lowcmd = 0.0
         self.loop = None
@@ -52,8 +54,12 @@ class InProcessRobot:
     def read(self) -> RobotState:
         state = self.sim.state()
         state.received_at = self.sim.time
-        self.received += 1
+        self.states.add(state)
         return state
+
+    @property
+    def received(self) -> int:
+        return self.states.received
 
     def send(self, cmd: MotorCommand) -> None:
         self.latest = cmd
@@ -93,6 +99,10 @@ class WallClockRobot:
     @property
     def received(self) -> int:
         return self.dds.received
+
+    @property
+    def states(self) -> FreshStates:
+        return self.dds.states
 
     @property
     def sent(self) -> int:
@@ -386,7 +396,8 @@ class Deployment:
                "policy_seconds": (round((self.policy_until or self.robot.now()) - self.policy_since, 3)
                                   if self.policy_since is not None else 0),
                "messages_received": int(self.robot.received), "messages_sent": int(self.robot.sent),
-               "commands": int(getattr(self.robot, "commands", 0)), "events": self.record.events,
+               "commands": int(getattr(self.robot, "commands", 0)), "lowstate": self.robot.states.summary(),
+               "events": self.record.events,
                "stand_still": None if self.stand_still is None else {
                    "waited_s": round(self.waited_s, 3), "gyro_bound": self.stand_still.gyro_bound,
                    "tilt_rate_bound": self.stand_still.tilt_rate_bound, "window_s": self.stand_still.window_s}}

@@ -9,6 +9,7 @@ import time
 
 import numpy as np
 
+from pchc_rsl.deploy.fresh_states import FreshStates
 from pchc_rsl.deploy.g1_motors import NUM_MOTORS
 from pchc_rsl.deploy.lowcmd_stream import DEFAULT_LOWCMD_HZ, LowCmdStream
 from pchc_rsl.deploy.robot_io import MotorCommand, RobotState
@@ -174,8 +175,8 @@ class RawReader:
 
 class DdsRobot:
     """The deploy's end: the latest rt/lowstate (converted on arrival) and rt/lowcmd out at the low-level rate
-    (LowCmdStream), with counters. A LowState that is not a G1's (wrong size or encoding) is dropped, counted and its
-    reason kept for the operator."""
+    (LowCmdStream), with counters (``states``: LowState received, and how many were new readings). A LowState that
+    is not a G1's (wrong size or encoding) is dropped, counted and its reason kept for the operator."""
 
     def __init__(self, domain: int, interface: str | None, lowcmd_hz: float = DEFAULT_LOWCMD_HZ,
                  damping_kd: float = 8.0) -> None:
@@ -184,7 +185,8 @@ class DdsRobot:
         self.domain, self.interface = domain, interface
         self._lock = threading.Lock()
         self._state: RobotState | None = None
-        self.received = self.rejected = self.commands = 0
+        self.states = FreshStates()
+        self.rejected = self.commands = 0
         self.rejected_reason = ""
         self._publisher = channel.ChannelPublisher(LOWCMD_TOPIC, hg.LowCmd_)
         self._publisher.Init()
@@ -201,11 +203,16 @@ class DdsRobot:
             return
         with self._lock:
             self._state = state
-            self.received += 1
+            self.states.add(state)
 
     def read(self) -> RobotState | None:
         with self._lock:
             return self._state
+
+    @property
+    def received(self) -> int:
+        """LowState messages taken in."""
+        return self.states.received
 
     def send(self, cmd: MotorCommand) -> None:
         """The control loop's newest command; the stream writes it until the next."""
