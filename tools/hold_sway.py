@@ -67,7 +67,8 @@ def main() -> None:
     for after in AFTER_S:
         second = rows[(rows[:, 0] > release + after - 1.0 + 1e-9) & (rows[:, 0] <= release + after + 1e-9)]
         print(f"{after:g} s after the release: gyro up to {second[:, 1].max():.3f} rad/s, tilt rate up to "
-              f"{second[:, 2].max():.3f}/s in the second before; pelvis {100 * second[-1, 3]:+.1f} cm ahead of the feet")
+              f"{second[:, 2].max():.3f}/s in the second before; pelvis {100 * second[-1, 3]:+.1f} cm ahead of the "
+              "feet")
     still = result["still_at"]
     print("stands still (stand_still.py) " + (f"{still - release:.2f} s after the release" if still is not None else
                                               "not within the run"))
