@@ -8,7 +8,6 @@ import os
 import shutil
 import subprocess
 import sys
-import sysconfig
 import zipfile
 from pathlib import Path
 
@@ -79,6 +78,12 @@ def wheel(tmp_path_factory) -> Path:
     return wheel
 
 
+def dependency_folders() -> list[str]:
+    """The site-packages folders this interpreter imports from, in order: its own and any that a .pth line added (a
+    venv that itself borrows another's). The source tree is not one of them."""
+    return [path for path in sys.path if Path(path).name in ("site-packages", "dist-packages") and Path(path).is_dir()]
+
+
 def fresh_venv(tmp_path: Path, wheel: Path) -> Path:
     """A venv holding only the wheel; this venv's site-packages is on its path (a .pth line, which adds the folder
     but runs none of the .pth files in it, so the editable install's finder stays off): no download."""
@@ -87,8 +92,7 @@ def fresh_venv(tmp_path: Path, wheel: Path) -> Path:
     python = venv / "bin" / "python"
     site = Path(run([str(python), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"], tmp_path,
                     outside_env()).strip())
-    borrowed = sorted({sysconfig.get_paths()["purelib"], sysconfig.get_paths()["platlib"]})
-    (site / "borrowed_dependencies.pth").write_text("\n".join(borrowed) + "\n")
+    (site / "borrowed_dependencies.pth").write_text("\n".join(dependency_folders()) + "\n")
     run([str(python), "-m", "pip", "install", "--no-deps", "--no-index", "--ignore-installed", "-q", str(wheel)],
         tmp_path, outside_env())
     return venv
@@ -104,7 +108,8 @@ def wheel_scripts(wheel: Path) -> set[str]:
 
 
 def test_the_wheel_holds_every_module_of_the_tree(wheel):
-    in_tree = {f"pchc_rsl/{path.relative_to(ROOT / 'pchc_rsl').as_posix()}" for path in (ROOT / "pchc_rsl").rglob("*.py")}
+    in_tree = {f"pchc_rsl/{path.relative_to(ROOT / 'pchc_rsl').as_posix()}"
+               for path in (ROOT / "pchc_rsl").rglob("*.py")}
     in_tree |= {f"pchc_rsl/{path.relative_to(ROOT).as_posix()}" for folder in MAPPED_FOLDERS
                 for path in (ROOT / folder).rglob("*.py")}
     with zipfile.ZipFile(wheel) as archive:
