@@ -26,6 +26,8 @@ def walk_rewards() -> list[RewardTerm]:
         RewardTerm(R + "track_lin_vel_xy", 1.0, params={"std": 0.15}),
         RewardTerm(R + "track_ang_vel_z", 1.5, params={"std": 0.5}),
         RewardTerm(R + "track_ang_vel_z", 1.5, params={"std": 0.15}),
+        RewardTerm(R + "track_average_lin_vel_xy", 2.0, params={"std": 0.1}),
+        RewardTerm(R + "track_average_yaw_rate", 2.0, params={"std": 0.1}),
         RewardTerm(R + "heading_hold", 1.5, params={"std": 0.3}),
         RewardTerm(R + "flat_orientation", -5.0),
         RewardTerm(R + "base_height", -10.0, params={"target": 0.74}),

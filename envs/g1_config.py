@@ -89,6 +89,8 @@ class G1EnvConfig:
     """Share of commands that are zero (standing still), drawn with each command on top of command_ranges."""
     zero_yaw_rate_probability: float = 0.0
     """Share of the other commands whose yaw rate is zero (walking straight)."""
+    velocity_average_s: float = 0.5
+    """Time constant (s) of ``G1Env.velocity_average``, the base's velocity with the gait's sway filtered out."""
     command_resample_s: tuple[float, float] | None = None
     """Draw a new command after a time uniform in this range (s), again and again within an episode, as a robot is
     steered; None: one command per episode, drawn at the reset."""

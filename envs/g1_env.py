@@ -97,6 +97,10 @@ class G1Env(VecEnv):
         self.commands = torch.zeros(n, 3, device=dev)
         self.heading_error = torch.zeros(n, device=dev)
         """[N] the base's yaw minus the yaw its commands integrate to since the command was set (rad, wrapped)."""
+        self.velocity_average = torch.zeros(n, 3, device=dev)
+        """[N, (v_x, v_y, w_z)] the base's forward and sideways speed (base frame) and yaw rate, averaged over about
+        ``velocity_average_s`` (an exponential average): a walker's velocity sways with every step, and a kernel on
+        the instantaneous value pays a walker that is right on average little more than one that is off."""
         self.previous_yaw = torch.zeros(n, device=dev)
         """[N] the base's yaw at the last step (rad): its per-step change, summed, is the turn unwrapped."""
         self.episode_origin = torch.zeros(n, 2, device=dev)
@@ -151,6 +155,7 @@ class G1Env(VecEnv):
         self.joint_targets[ids] = self.default_joint_pos
         self.episode_length_buf[ids] = 0
         self.previous_yaw[ids] = self.robot.yaw[ids]
+        self.velocity_average[ids] = 0.0
         self.heading_error[ids] = 0.0
         self.episode_origin[ids] = self.robot.base_pos[ids, :2]
         self.episode_start_heading[ids] = self.robot.heading[ids]
@@ -248,6 +253,8 @@ class G1Env(VecEnv):
         self.pushes.track(self.robot, self.commands)
         self._after_physics()
         self.heading_error = wrap_angle(self.heading_error + self.yaw_change() - self.commands[:, 2] * self.dt)
+        velocity = torch.cat([self.robot.base_lin_vel[:, :2], (self.yaw_change() / self.dt).unsqueeze(-1)], dim=-1)
+        self.velocity_average += min(1.0, self.dt / self.cfg.velocity_average_s) * (velocity - self.velocity_average)
 
         reward_groups = self.rewards.compute(self)
         reward_groups.masked_fill_(unstable.unsqueeze(-1), 0.0)  # diverged physics earns nothing; reset and counted

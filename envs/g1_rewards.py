@@ -23,6 +23,18 @@ def track_ang_vel_z(env, std: float) -> torch.Tensor:
     return torch.exp(-((env.commands[:, 2] - env.robot.base_ang_vel[:, 2]) ** 2) / std**2)
 
 
+def track_average_lin_vel_xy(env, std: float) -> torch.Tensor:
+    """exp(-||v_cmd_xy - v_avg_xy||^2 / std^2) of the base-frame velocity averaged over the last steps
+    (``env.velocity_average``): a narrow kernel that pays being right on average, which the sway of every step hides
+    from a kernel on the instantaneous velocity."""
+    return torch.exp(-((env.commands[:, :2] - env.velocity_average[:, :2]) ** 2).sum(-1) / std**2)
+
+
+def track_average_yaw_rate(env, std: float) -> torch.Tensor:
+    """exp(-(w_cmd - w_avg)^2 / std^2) of the yaw rate averaged over the last steps (``env.velocity_average``)."""
+    return torch.exp(-((env.commands[:, 2] - env.velocity_average[:, 2]) ** 2) / std**2)
+
+
 def heading_hold(env, std: float) -> torch.Tensor:
     """exp(-e^2 / std^2) of the heading error e: the base's yaw against the yaw its yaw-rate commands integrate to
     since the command was set. A tracking kernel on the yaw rate itself barely sees a bias of a few degrees per

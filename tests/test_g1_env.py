@@ -312,6 +312,28 @@ def test_r_disturb_reference_moves_straight_without_reference_turns():
     torch.testing.assert_close(env.pushes.ref_offset[0], torch.tensor([0.5, 0.0]), atol=1e-5, rtol=0)
 
 
+def test_velocity_average_is_an_exponential_average_of_the_base_velocity_and_yaw_rate():
+    """A reference loop over the same steps: v_avg += dt / tau (v - v_avg) from 0 at the reset, v = (base-frame v_x,
+    v_y, the yaw's change over the step / dt)."""
+    from pchc_rsl.envs import g1_rewards
+
+    env = make_walk_env(num_envs=2, velocity_average_s=0.1)
+    env.commands[:] = torch.tensor([0.5, 0.0, 0.5])
+    alpha, expected = env.dt / 0.1, torch.zeros(2, 3)
+    yaw = env.robot.yaw.clone()
+    generator = torch.Generator().manual_seed(0)
+    for _ in range(8):
+        env.step(0.5 * torch.randn(2, 20, generator=generator))
+        turn = torch.atan2(torch.sin(env.robot.yaw - yaw), torch.cos(env.robot.yaw - yaw))
+        yaw = env.robot.yaw.clone()
+        velocity = torch.cat([env.robot.base_lin_vel[:, :2], (turn / env.dt).unsqueeze(-1)], dim=-1)
+        expected += alpha * (velocity - expected)
+    torch.testing.assert_close(env.velocity_average, expected, atol=1e-5, rtol=1e-4)
+    assert expected.abs().max() > 0.01  # the robot moved
+    error = ((env.commands[:, 2] - expected[:, 2]) ** 2) / 0.1**2
+    torch.testing.assert_close(g1_rewards.track_average_yaw_rate(env, std=0.1), torch.exp(-error), atol=1e-5, rtol=1e-4)
+
+
 def test_critic_push_timing_adds_the_window_left_and_the_time_to_the_next_push():
     from pchc_rsl.envs.g1_config import PushConfig
 

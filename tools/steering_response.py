@@ -1,0 +1,77 @@
+"""How a walker answers the steering commands, per preference, pushes off: the yaw rate it turns at when told
++-0.5 rad/s (walking 0.5 m/s), the forward speed told 0.5 m/s straight, and how far its heading strays walking
+straight.
+
+    python tools/steering_response.py CKPT [CKPT ...] [--num-envs 32] [--preferences 3]
+
+Why: a quick side-by-side of checkpoints (a reward change against the same budget without it) on the figures a
+robot's operator feels, measured after the walker got going (the first second is left out) over 7 s, so that the
+start-up does not count as error. pchc-eval's robustness conditions give the same quantities over whole episodes,
+with pushes, and with intervals.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+import torch
+
+from pchc_rsl.evaluation import evenly_spaced_preferences
+
+SETTLE_S, MEASURE_S = 1.0, 7.0
+TESTS = [("left", (0.5, 0.0, 0.5)), ("right", (0.5, 0.0, -0.5)), ("straight", (0.5, 0.0, 0.0))]
+
+
+def response(env, policy, preference, command) -> dict:
+    """Per env over MEASURE_S after SETTLE_S at a constant command: mean yaw rate (rad/s), mean forward speed (m/s,
+    base frame), heading change (deg)."""
+    steps, settle = round((SETTLE_S + MEASURE_S) / env.dt), round(SETTLE_S / env.dt)
+    turned = torch.zeros(env.num_envs)
+    speed = torch.zeros(env.num_envs)
+    with torch.inference_mode():
+        env.set_preference(preference)
+        env.reset()
+        obs = env.get_observations()
+        previous = env.robot.yaw.clone()
+        for k in range(steps):
+            env.commands[:] = torch.tensor(command)
+            obs, _, _, _ = env.step(policy(obs))
+            yaw = env.robot.yaw.clone()
+            if k >= settle:
+                turned += torch.atan2(torch.sin(yaw - previous), torch.cos(yaw - previous))
+                speed += env.robot.base_lin_vel[:, 0]
+            previous = yaw
+    measured = steps - settle
+    return {"yaw_rate": turned / (measured * env.dt), "speed": speed / measured,
+            "heading_change": turned.abs() * 180.0 / math.pi}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("checkpoints", nargs="+")
+    parser.add_argument("--num-envs", type=int, default=32)
+    parser.add_argument("--preferences", type=int, default=3, help="evenly spaced from (1, 0) to (0, 1)")
+    parser.add_argument("--seed", type=int, default=0)
+    args = parser.parse_args()
+
+    from pchc_rsl.evaluation.checkpoint import load_policy
+
+    print(f"{args.num_envs} envs per cell, pushes off, measured {MEASURE_S:g} s after {SETTLE_S:g} s; medians over "
+          "envs of the yaw rate told +-0.5 rad/s at 0.5 m/s, the speed told 0.5 m/s straight, |heading change|")
+    print("| checkpoint | lambda | yaw rate told +0.5 | told -0.5 | speed told 0.5 | heading change, median | p90 |")
+    print("|---|---|---|---|---|---|---|")
+    for path in args.checkpoints:
+        _, env, policy = load_policy(path, args.num_envs, args.seed, SETTLE_S + MEASURE_S + 1.0, None,
+                                     ["env.push.enabled=false"])
+        for preference in evenly_spaced_preferences(args.preferences):
+            r = {name: response(env, policy, preference, command) for name, command in TESTS}
+            shown = ", ".join(f"{x:g}" for x in preference)
+            straight = r["straight"]["heading_change"]
+            print(f"| {path} | ({shown}) | {r['left']['yaw_rate'].median():.3f} | {r['right']['yaw_rate'].median():.3f}"
+                  f" | {r['straight']['speed'].median():.3f} | {straight.median():.1f} | {straight.quantile(0.9):.1f} |",
+                  flush=True)
+
+
+if __name__ == "__main__":
+    main()
