@@ -2,7 +2,7 @@
 +-0.5 rad/s (walking 0.5 m/s), the forward speed told 0.5 m/s straight, and how far its heading strays walking
 straight.
 
-    python tools/steering_response.py CKPT [CKPT ...] [--num-envs 32] [--preferences 3]
+    python tools/steering_response.py CKPT [CKPT ...] [--num-envs 32] [--preferences 3] [--yaw-rates 0.25 0.5 1]
 
 Why: a quick side-by-side of checkpoints (a reward change against the same budget without it) on the figures a
 robot's operator feels, measured after the walker got going (the first second is left out) over 7 s, so that the
@@ -20,7 +20,6 @@ import torch
 from pchc_rsl.evaluation import evenly_spaced_preferences
 
 SETTLE_S, MEASURE_S = 1.0, 7.0
-TESTS = [("left", (0.5, 0.0, 0.5)), ("right", (0.5, 0.0, -0.5)), ("straight", (0.5, 0.0, 0.0))]
 
 
 def response(env, policy, preference, command) -> dict:
@@ -53,23 +52,29 @@ def main() -> None:
     parser.add_argument("--num-envs", type=int, default=32)
     parser.add_argument("--preferences", type=int, default=3, help="evenly spaced from (1, 0) to (0, 1)")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--yaw-rates", type=float, nargs="+", default=[0.5],
+                        help="left turns to measure (rad/s, at 0.5 m/s); the right turn is told -0.5")
     args = parser.parse_args()
+    tests = [(f"+{w:g}", (0.5, 0.0, w)) for w in args.yaw_rates] + [("-0.5", (0.5, 0.0, -0.5)),
+                                                                      ("straight", (0.5, 0.0, 0.0))]
 
     from pchc_rsl.evaluation.checkpoint import load_policy
 
     print(f"{args.num_envs} envs per cell, pushes off, measured {MEASURE_S:g} s after {SETTLE_S:g} s; medians over "
           "envs of the yaw rate told +-0.5 rad/s at 0.5 m/s, the speed told 0.5 m/s straight, |heading change|")
-    print("| checkpoint | lambda | yaw rate told +0.5 | told -0.5 | speed told 0.5 | heading change, median | p90 |")
-    print("|---|---|---|---|---|---|---|")
+    turns = [name for name, _ in tests[:-1]]
+    print("| checkpoint | lambda | " + " | ".join(f"yaw rate told {name}" for name in turns)
+          + " | speed told 0.5 | heading change, median | p90 |")
+    print("|---|---|" + "---|" * (len(turns) + 3))
     for path in args.checkpoints:
         _, env, policy = load_policy(path, args.num_envs, args.seed, SETTLE_S + MEASURE_S + 1.0, None,
                                      ["env.push.enabled=false"])
         for preference in evenly_spaced_preferences(args.preferences):
-            r = {name: response(env, policy, preference, command) for name, command in TESTS}
+            r = {name: response(env, policy, preference, command) for name, command in tests}
             shown = ", ".join(f"{x:g}" for x in preference)
             straight = r["straight"]["heading_change"]
-            print(f"| {path} | ({shown}) | {r['left']['yaw_rate'].median():.3f} | {r['right']['yaw_rate'].median():.3f}"
-                  f" | {r['straight']['speed'].median():.3f} | {straight.median():.1f} | {straight.quantile(0.9):.1f} |",
+            print(f"| {path} | ({shown}) | " + " | ".join(f"{r[name]['yaw_rate'].median():.3f}" for name in turns)
+                  + f" | {r['straight']['speed'].median():.3f} | {straight.median():.1f} | {straight.quantile(0.9):.1f} |",
                   flush=True)
 
 
