@@ -12,8 +12,10 @@ R = "pchc_rsl.envs.g1_rewards:"
 
 def walk_rewards() -> list[RewardTerm]:
     """Task terms after mjlab's G1 velocity task (src/mjlab/tasks/velocity/velocity_env_cfg.py and
-    config/g1/env_cfgs.py): tracking weighted 2.0 (std 0.5 and sqrt(0.5)), foot clearance -2.0. mjlab's upright and
-    posture terms reward staying up; ``alive`` stands in for them here.
+    config/g1/env_cfgs.py), foot clearance -2.0; mjlab's upright and posture terms reward staying up, ``alive``
+    stands in for them here. Tracking weighs twice mjlab's 2.0: at mjlab's weights the walker turned at half the
+    commanded rate and, at lambda = (1, 0), walked 0.3 m/s when told 0.5 (docs/design.md, "Why the walker turned too
+    slowly: side by side").
 
     Gait terms, against hopping (both feet leaving the ground together): legged_gym's air-time term, which charges
     every swing shorter than 0.3 s and pays longer ones up to 0.5 s (weight 8; docs/design.md, "Gait terms"), a
@@ -22,13 +24,13 @@ def walk_rewards() -> list[RewardTerm]:
     objectives are the paper's equations: r_stride read per stance step and paid at the commanded speed
     (docs/design.md, "The stride speed gate"), r_disturb with a fall costing 5 (docs/design.md, "Fall costs")."""
     return [
-        RewardTerm(R + "track_lin_vel_xy", 2.0, params={"std": 0.5}),
+        RewardTerm(R + "track_lin_vel_xy", 4.0, params={"std": 0.5}),
         RewardTerm(R + "track_lin_vel_xy", 1.0, params={"std": 0.15}),
-        RewardTerm(R + "track_ang_vel_z", 1.5, params={"std": 0.5}),
-        RewardTerm(R + "track_ang_vel_z", 1.5, params={"std": 0.15}),
+        RewardTerm(R + "track_ang_vel_z", 3.0, params={"std": 0.5}),
+        RewardTerm(R + "track_ang_vel_z", 3.0, params={"std": 0.15}),
         RewardTerm(R + "track_average_lin_vel_xy", 2.0, params={"std": 0.1}),
         RewardTerm(R + "track_average_yaw_rate", 2.0, params={"std": 0.1}),
-        RewardTerm(R + "heading_hold", 1.5, params={"std": 0.3}),
+        RewardTerm(R + "heading_hold", 3.0, params={"std": 0.3}),
         RewardTerm(R + "flat_orientation", -5.0),
         RewardTerm(R + "base_height", -10.0, params={"target": 0.74}),
         RewardTerm(R + "feet_slip", -0.1),
