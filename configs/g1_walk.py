@@ -30,7 +30,7 @@ def walk_rewards() -> list[RewardTerm]:
         RewardTerm(R + "track_ang_vel_z", 3.0, params={"std": 0.15}),
         RewardTerm(R + "track_average_lin_vel_xy", 2.0, params={"std": 0.1}),
         RewardTerm(R + "track_average_yaw_rate", 2.0, params={"std": 0.1}),
-        RewardTerm(R + "heading_hold", 3.0, params={"std": 0.3}),
+        RewardTerm(R + "heading_hold", 3.0, params={"std": 0.1}),
         RewardTerm(R + "flat_orientation", -5.0),
         RewardTerm(R + "base_height", -10.0, params={"target": 0.74}),
         RewardTerm(R + "feet_slip", -0.1),
