@@ -149,6 +149,23 @@ def test_training_line_says_where_the_evaluated_checkpoint_sits_on_longer_runs(t
                                                         str(last))[0]
 
 
+def test_no_position_on_the_curves_for_a_checkpoint_whose_lineage_restarted_its_iterations(tmp_path):
+    import torch
+    from test_plot_training import fake_run
+
+    fake_run(tmp_path / "a", range(0, 10), 360.0)
+    fake_run(tmp_path / "b", range(0, 10), 360.0)  # --init-from a's checkpoint: iterations count from 0 again
+    config = {"num_envs": 4, "runner": {"num_steps_per_env": 10}}
+    start = tmp_path / "b_model_4.pt"  # resumed from below; b itself started from a
+    torch.save({"iter": 4, "config": {**config, "initialised_from": str(tmp_path / "a_model_9.pt")}}, start)
+    checkpoint = tmp_path / "model_5.pt"  # 6 iterations of b, 400 env steps of a and b: not 240
+    torch.save({"iter": 5, "config": {**config, "resumed_from": str(start)}}, checkpoint)
+    runs = f"{tmp_path / 'a'}+{tmp_path / 'b'}"
+    line, = g1_report.training_summary(runs, ["Train/mean_reward"], str(tmp_path / "c.png"), str(checkpoint))
+    assert line.startswith("Trained for 800 env steps")
+    assert "taken at" not in line
+
+
 def test_sections_whose_inputs_are_not_given_are_kept_and_fewer_episodes_need_force(tmp_path):
     """Rewriting only the walker's claim (d) section keeps its table section and training curves word for word, and
     the fall-recovery card is another file; a walking section made from 256 episodes is not replaced by one from 4

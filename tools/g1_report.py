@@ -322,13 +322,24 @@ def fall_section(results: dict) -> tuple[list[str], list[tuple[str, bool, str]]]
 
 
 def env_steps(checkpoint: str) -> int | None:
-    """Env steps behind a checkpoint: (iterations done) x envs x steps per env; None if the file is gone."""
+    """Env steps behind a checkpoint: (iterations done) x envs x steps per env; None if the file is gone, or if
+    its run, or a run it was resumed from, started with ``--init-from``: such a run counts its iterations from 0,
+    so they say nothing of the steps before it."""
     if not checkpoint or not os.path.exists(checkpoint):
         return None
     import torch
 
     saved = torch.load(checkpoint, map_location="cpu", weights_only=True)
-    return (saved["iter"] + 1) * saved["config"]["num_envs"] * saved["config"]["runner"]["num_steps_per_env"]
+    config, seen = saved["config"], {os.path.abspath(checkpoint)}
+    while not config.get("initialised_from"):
+        resumed = config.get("resumed_from")
+        if not resumed:
+            return (saved["iter"] + 1) * saved["config"]["num_envs"] * saved["config"]["runner"]["num_steps_per_env"]
+        if os.path.abspath(resumed) in seen or not os.path.exists(resumed):
+            return None
+        seen.add(os.path.abspath(resumed))
+        config = torch.load(resumed, map_location="cpu", weights_only=True)["config"]
+    return None
 
 
 def dominates(a, b) -> bool:
