@@ -15,7 +15,8 @@ def walk_rewards() -> list[RewardTerm]:
     config/g1/env_cfgs.py), foot clearance -2.0; mjlab's upright and posture terms reward staying up, ``alive``
     stands in for them here. Tracking weighs twice mjlab's 2.0: at mjlab's weights the walker turned at half the
     commanded rate and, at lambda = (1, 0), walked 0.3 m/s when told 0.5 (docs/design.md, "Why the walker turned too
-    slowly: side by side").
+    slowly: side by side"); the heading hold's kernel is 0.1 rad wide, so that a few degrees off cost (docs/design.md,
+    beside the heading hold).
 
     Gait terms, against hopping (both feet leaving the ground together): legged_gym's air-time term, which charges
     every swing shorter than 0.3 s and pays longer ones up to 0.5 s (weight 8; docs/design.md, "Gait terms"), a

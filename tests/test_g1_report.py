@@ -158,7 +158,7 @@ def test_no_position_on_the_curves_for_a_checkpoint_whose_lineage_restarted_its_
     config = {"num_envs": 4, "runner": {"num_steps_per_env": 10}}
     start = tmp_path / "b_model_4.pt"  # resumed from below; b itself started from a
     torch.save({"iter": 4, "config": {**config, "initialised_from": str(tmp_path / "a_model_9.pt")}}, start)
-    checkpoint = tmp_path / "model_5.pt"  # 6 iterations of b, 400 env steps of a and b: not 240
+    checkpoint = tmp_path / "model_5.pt"  # iterations 0-5 of b (240 env steps), after all 400 of a
     torch.save({"iter": 5, "config": {**config, "resumed_from": str(start)}}, checkpoint)
     runs = f"{tmp_path / 'a'}+{tmp_path / 'b'}"
     line, = g1_report.training_summary(runs, ["Train/mean_reward"], str(tmp_path / "c.png"), str(checkpoint))
