@@ -252,8 +252,9 @@ class G1Env(VecEnv):
         self.episode_length_buf += 1
         self.pushes.track(self.robot, self.commands)
         self._after_physics()
-        self.heading_error = wrap_angle(self.heading_error + self.yaw_change() - self.commands[:, 2] * self.dt)
-        velocity = torch.cat([self.robot.base_lin_vel[:, :2], (self.yaw_change() / self.dt).unsqueeze(-1)], dim=-1)
+        turn = self.yaw_change()
+        self.heading_error = wrap_angle(self.heading_error + turn - self.commands[:, 2] * self.dt)
+        velocity = torch.cat([self.robot.base_lin_vel[:, :2], (turn / self.dt).unsqueeze(-1)], dim=-1)
         self.velocity_average += min(1.0, self.dt / self.cfg.velocity_average_s) * (velocity - self.velocity_average)
 
         reward_groups = self.rewards.compute(self)

@@ -17,6 +17,7 @@ import math
 
 import torch
 
+from pchc_rsl.envs.g1_env import wrap_angle
 from pchc_rsl.evaluation import evenly_spaced_preferences
 
 SETTLE_S, MEASURE_S = 1.0, 7.0
@@ -28,17 +29,18 @@ def response(env, policy, preference, command) -> dict:
     steps, settle = round((SETTLE_S + MEASURE_S) / env.dt), round(SETTLE_S / env.dt)
     turned = torch.zeros(env.num_envs)
     speed = torch.zeros(env.num_envs)
+    command = torch.tensor(command)
     with torch.inference_mode():
         env.set_preference(preference)
         env.reset()
         obs = env.get_observations()
         previous = env.robot.yaw.clone()
         for k in range(steps):
-            env.commands[:] = torch.tensor(command)
+            env.commands[:] = command
             obs, _, _, _ = env.step(policy(obs))
             yaw = env.robot.yaw.clone()
             if k >= settle:
-                turned += torch.atan2(torch.sin(yaw - previous), torch.cos(yaw - previous))
+                turned += wrap_angle(yaw - previous)
                 speed += env.robot.base_lin_vel[:, 0]
             previous = yaw
     measured = steps - settle
