@@ -15,8 +15,9 @@ def walk_rewards() -> list[RewardTerm]:
     config/g1/env_cfgs.py), foot clearance -2.0; mjlab's upright and posture terms reward staying up, ``alive``
     stands in for them here. Tracking weighs twice mjlab's 2.0: at mjlab's weights the walker turned at half the
     commanded rate and, at lambda = (1, 0), walked 0.3 m/s when told 0.5 (docs/design.md, "Why the walker turned too
-    slowly: side by side"); the heading hold's kernel is 0.1 rad wide, so that a few degrees off cost (docs/design.md,
-    beside the heading hold).
+    slowly: side by side"); the heading hold's kernel is 0.1 rad wide, so that a few degrees off cost, and the
+    position hold charges the distance from where the commands take the robot (docs/design.md, beside the heading
+    hold).
 
     Gait terms, against hopping (both feet leaving the ground together): legged_gym's air-time term, which charges
     every swing shorter than 0.3 s and pays longer ones up to 0.5 s (weight 8; docs/design.md, "Gait terms"), a
@@ -32,6 +33,7 @@ def walk_rewards() -> list[RewardTerm]:
         RewardTerm(R + "track_average_lin_vel_xy", 2.0, params={"std": 0.1}),
         RewardTerm(R + "track_average_yaw_rate", 2.0, params={"std": 0.1}),
         RewardTerm(R + "heading_hold", 3.0, params={"std": 0.1}),
+        RewardTerm(R + "position_hold", 3.0, params={"std": 0.25}),
         RewardTerm(R + "flat_orientation", -5.0),
         RewardTerm(R + "base_height", -10.0, params={"target": 0.74}),
         RewardTerm(R + "feet_slip", -0.1),

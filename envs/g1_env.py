@@ -19,6 +19,7 @@ from tensordict import TensorDict
 
 from rsl_rl.env import VecEnv
 
+from pchc_rsl.envs.commanded_path import CommandedPath
 from pchc_rsl.envs.g1_config import G1EnvConfig, PushConfig, RandomizationConfig, RewardTerm
 from pchc_rsl.envs.g1_contacts import FootContacts, median_from_histogram
 from pchc_rsl.envs.g1_metrics import EpisodeSums, larger_over_smaller, ratio
@@ -97,6 +98,9 @@ class G1Env(VecEnv):
         self.commands = torch.zeros(n, 3, device=dev)
         self.heading_error = torch.zeros(n, device=dev)
         """[N] the base's yaw minus the yaw its commands integrate to since the command was set (rad, wrapped)."""
+        self.commanded_path = CommandedPath(n, self.dt, dev)
+        """Where each env's commands take it since the command was set or a push's window closed (the position
+        hold's reference; during a window the disturbance objective measures the drift instead)."""
         self.velocity_average = torch.zeros(n, 3, device=dev)
         """[N, (v_x, v_y, w_z)] the base's forward and sideways speed (base frame) and yaw rate, averaged over about
         ``velocity_average_s`` (an exponential average): a walker's velocity sways with every step, and a kernel on
@@ -157,6 +161,9 @@ class G1Env(VecEnv):
         self.previous_yaw[ids] = self.robot.yaw[ids]
         self.velocity_average[ids] = 0.0
         self.heading_error[ids] = 0.0
+        restarted = torch.zeros(self.num_envs, dtype=torch.bool, device=self.device)
+        restarted[ids] = True
+        self.commanded_path.restart(restarted, self.robot.base_pos[:, :2], self.robot.yaw)
         self.episode_origin[ids] = self.robot.base_pos[ids, :2]
         self.episode_start_heading[ids] = self.robot.heading[ids]
         self.feet.reset(ids, self.robot.foot_touch_substeps, self.robot.foot_pos, self.cfg.planted_foot_height)
@@ -195,6 +202,7 @@ class G1Env(VecEnv):
         due = self.command_countdown <= 0
         self.commands = torch.where(due.unsqueeze(-1), self.sample_commands(self.num_envs), self.commands)
         self.heading_error = torch.where(due, 0.0, self.heading_error)
+        self.commanded_path.restart(due, self.robot.base_pos[:, :2], self.robot.yaw)
         self.command_countdown = torch.where(due, self._command_interval(self.num_envs), self.command_countdown)
 
     def _uniform(self, n: int, low: float, high: float) -> torch.Tensor:
@@ -251,6 +259,8 @@ class G1Env(VecEnv):
         self.feet.update(self.robot.foot_touch_substeps, self.robot.foot_pos, self.robot.heading)
         self.episode_length_buf += 1
         self.pushes.track(self.robot, self.commands)
+        self.commanded_path.advance(self.commands)
+        self.commanded_path.restart(self.pushes.active, self.robot.base_pos[:, :2], self.robot.yaw)
         self._after_physics()
         turn = self.yaw_change()
         self.heading_error = wrap_angle(self.heading_error + turn - self.commands[:, 2] * self.dt)

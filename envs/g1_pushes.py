@@ -13,6 +13,7 @@ import math
 
 import torch
 
+from pchc_rsl.envs.commanded_path import arc_step, rotate
 from pchc_rsl.envs.g1_config import PushConfig
 from pchc_rsl.envs.g1_robot_state import RobotState, yaw_of
 
@@ -104,18 +105,12 @@ class Pushes:
             current.copy_(torch.where(mask, value, current))  # a Python number stays on the host side
 
     def advance_reference(self, commands: torch.Tensor) -> None:
-        """Move the reference by one policy step of the commanded twist [N, (forward, sideways, yaw rate)].
-
-        Exact for a twist held over the step: a body moving at (v_x, v_y) in its own frame while turning at w
-        travels (v_x sin(w dt) - v_y (1 - cos(w dt)), v_x (1 - cos(w dt)) + v_y sin(w dt)) / w in the frame it had
-        at the step's start, and (v_x dt, v_y dt) as w -> 0 (sinc keeps that limit free of division by zero)."""
+        """Move the reference by one policy step of the commanded twist [N, (forward, sideways, yaw rate)], along
+        the arc it takes a body (envs/commanded_path.py)."""
         v, turn = commands[:, :2], commands[:, 2] * self.dt
         if not self.cfg.reference_turns:
             turn = torch.zeros_like(turn)
-        sin_over_w = self.dt * torch.sinc(turn / math.pi)  # sin(w dt) / w
-        one_minus_cos_over_w = self.dt * torch.sin(turn / 2) * torch.sinc(turn / (2 * math.pi))  # (1 - cos(w dt)) / w
-        step = torch.stack([v[:, 0] * sin_over_w - v[:, 1] * one_minus_cos_over_w,
-                            v[:, 0] * one_minus_cos_over_w + v[:, 1] * sin_over_w], dim=-1)
+        step = arc_step(v, turn, self.dt)
         self.ref_offset = self.ref_offset + rotate(step, self.ref_yaw)
         self.ref_yaw = self.ref_yaw + turn
         self.ref_vel = rotate(v, self.ref_yaw)
@@ -160,8 +155,3 @@ class Pushes:
     def advance_window(self) -> None:
         self.window = (self.window - 1).clamp(min=0)
 
-
-def rotate(xy: torch.Tensor, yaw: torch.Tensor) -> torch.Tensor:
-    """[N, 2] vectors turned by ``yaw`` [N] (rad) about the vertical: body frame -> world frame."""
-    c, s = yaw.cos(), yaw.sin()
-    return torch.stack([c * xy[:, 0] - s * xy[:, 1], s * xy[:, 0] + c * xy[:, 1]], dim=-1)

@@ -43,6 +43,14 @@ def heading_hold(env, std: float) -> torch.Tensor:
     return torch.exp(-(env.heading_error**2) / std**2)
 
 
+def position_hold(env, std: float) -> torch.Tensor:
+    """exp(-||e||^2 / std^2) of the position error e: the base against where its commands take a body since the
+    command was set or a push's window closed (``env.commanded_path``). Biases of a few cm/s, which the velocity
+    kernels barely see, add up in e; so do the lag after each change of command and a drift while told to stand.
+    Inside a push's window it pays in full: the disturbance objective, not the task, prices the drift there."""
+    return torch.exp(-(env.commanded_path.error(env.robot.base_pos[:, :2]) ** 2).sum(-1) / std**2)
+
+
 def flat_orientation(env) -> torch.Tensor:
     """||g_xy||^2 of gravity in the base frame: 0 when upright."""
     return (env.robot.projected_gravity[:, :2] ** 2).sum(-1)

@@ -707,3 +707,36 @@ def test_a_step_waits_on_the_device_only_for_the_reset_indices(monkeypatch, task
     exec(compile("def clear(w):\n    w[w > 0] = 0\n", os.sep.join(["", "envs", "example.py"]), "exec"), namespace)
     namespace["clear"](env.pushes.window)
     assert [name for name, _ in recorder.calls] == ["mask __setitem__"]
+
+
+def test_position_error_is_the_base_against_where_the_commands_take_it_since_the_command():
+    """Told 0.5 m/s forward, a robot that takes no step for 20 steps (0.4 s) is 0.1-0.2 m behind its commanded
+    point (it sways a few cm): the error is its own displacement, read from the physics, minus 0.2 m along its start
+    heading. A push's window and a new command start the path over at the robot."""
+    from pchc_rsl.envs import g1_rewards
+
+    env = make_walk_env(num_envs=2, command_resample_s=None)
+    env.reset()
+    env.commands[:] = torch.tensor([0.5, 0.0, 0.0])
+    start = env.physics.qpos[:, :2].double().clone()
+    w, x, y, z = env.physics.qpos[:, 3:7].double().unbind(-1)
+    start_yaw = torch.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+    for _ in range(20):
+        env.step(torch.zeros(2, env.num_actions))
+    commanded = 0.5 * 20 * env.dt * torch.stack([start_yaw.cos(), start_yaw.sin()], -1)
+    expected = env.physics.qpos[:, :2].double() - start - commanded
+    error = env.commanded_path.error(env.robot.base_pos[:, :2])
+    torch.testing.assert_close(error.double(), expected, atol=1e-4, rtol=0)
+    assert (error.norm(dim=-1) > 0.1).all()
+    by_hand = torch.exp(-(expected.float() ** 2).sum(-1) / 0.2**2)
+    torch.testing.assert_close(g1_rewards.position_hold(env, std=0.2), by_hand, atol=1e-4, rtol=0)
+    push_now(env)
+    env.step(torch.zeros(2, env.num_actions))
+    assert env.commanded_path.error(env.robot.base_pos[:, :2]).abs().max() < 1e-6
+    env.pushes.window[:] = 0
+    env.step(torch.zeros(2, env.num_actions))
+    assert (env.commanded_path.error(env.robot.base_pos[:, :2]).norm(dim=-1) > 0.005).all()
+    env.cfg.command_resample_s = (0.02, 0.02)
+    env.command_countdown[:] = 1
+    env._resample_due_commands()
+    assert env.commanded_path.error(env.robot.base_pos[:, :2]).abs().max() < 1e-6
