@@ -129,8 +129,34 @@ def paired_log_ratio(numerator: list[float], denominator: list[float]) -> dict:
     mean = float(d.mean()) if n else float("nan")
     half = float(stats.t.ppf(0.975, n - 1) * d.std(ddof=1) / math.sqrt(n)) if n >= 2 else float("nan")
     low, high = mean - half, mean + half
+    sd = float(d.std(ddof=1)) if n >= 2 else float("nan")
     return {"n": n, "mean_log_ratio": mean, "ci95": [low, high], "ratio": math.exp(mean) if n else float("nan"),
-            "ratio_ci95": [math.exp(low), math.exp(high)], "log_ratios": d.tolist()}
+            "ratio_ci95": [math.exp(low), math.exp(high)], "log_ratios": d.tolist(), "sd_log_ratio": sd,
+            "pairs_for_80pct_power": pairs_for_power(abs(mean) / sd if sd > 0 else math.inf * abs(mean))
+            if n >= 2 else None}
+
+
+MAX_PAIRS = 10_000
+"""pairs_for_power's search bound: a difference that needs more is reported as too small to settle."""
+
+
+def pairs_for_power(effect: float, power: float = 0.8, alpha: float = 0.05) -> int | None:
+    """The fewest pairs at which a two-sided paired t-test at level ``alpha`` finds a true mean log-ratio of
+    ``effect`` standard deviations of the pair differences with probability ``power`` (the noncentral t; None beyond
+    MAX_PAIRS). With the measured mean and spread as the truth, this is the study size a decisive answer needs."""
+    from scipy import stats
+
+    if math.isnan(effect) or effect <= 0:
+        return None
+    if math.isinf(effect):  # pairs that all agree: two show it
+        return 2
+    for n in range(2, MAX_PAIRS + 1):
+        critical = stats.t.ppf(1 - alpha / 2, n - 1)
+        shift = effect * math.sqrt(n)
+        achieved = stats.nct.sf(critical, n - 1, shift) + stats.nct.cdf(-critical, n - 1, shift)
+        if achieved >= power:
+            return n
+    return None
 
 
 def analysis(rows: list[dict]) -> dict:
@@ -233,7 +259,10 @@ def verdict(a: dict, measure: str) -> str:
         return f"{measure}: PCI larger (the whole interval lies above 1)"
     if high < 1:
         return f"{measure}: PCI smaller (the whole interval lies below 1)"
-    return f"{measure}: no difference shown; the interval allows PCI/gated from {low:.2f} to {high:.2f}"
+    needed = a.get("pairs_for_80pct_power")
+    size = (f"; with the measured mean and spread as the truth, {needed} pairs would show it 80% of the time"
+            if needed else "; the measured difference is too small against its spread for any study size here")
+    return f"{measure}: no difference shown; the interval allows PCI/gated from {low:.2f} to {high:.2f}{size}"
 
 
 def markdown_section(study: dict) -> str:
