@@ -127,13 +127,13 @@ def paired_log_ratio(numerator: list[float], denominator: list[float]) -> dict:
     d = np.log(np.asarray(numerator, dtype=float)) - np.log(np.asarray(denominator, dtype=float))
     n = len(d)
     mean = float(d.mean()) if n else float("nan")
-    half = float(stats.t.ppf(0.975, n - 1) * d.std(ddof=1) / math.sqrt(n)) if n >= 2 else float("nan")
-    low, high = mean - half, mean + half
     sd = float(d.std(ddof=1)) if n >= 2 else float("nan")
+    half = float(stats.t.ppf(0.975, n - 1) * sd / math.sqrt(n)) if n >= 2 else float("nan")
+    low, high = mean - half, mean + half
+    effect = abs(mean) / sd if sd > 0 else (math.inf if mean else 0.0)  # pairs that all agree: no spread
     return {"n": n, "mean_log_ratio": mean, "ci95": [low, high], "ratio": math.exp(mean) if n else float("nan"),
             "ratio_ci95": [math.exp(low), math.exp(high)], "log_ratios": d.tolist(), "sd_log_ratio": sd,
-            "pairs_for_80pct_power": pairs_for_power(abs(mean) / sd if sd > 0 else math.inf * abs(mean))
-            if n >= 2 else None}
+            "pairs_for_80pct_power": pairs_for_power(effect) if n >= 2 else None}
 
 
 MAX_PAIRS = 10_000
@@ -148,7 +148,7 @@ def pairs_for_power(effect: float, power: float = 0.8, alpha: float = 0.05) -> i
 
     if math.isnan(effect) or effect <= 0:
         return None
-    if math.isinf(effect):  # pairs that all agree: two show it
+    if math.isinf(effect):  # two pairs that agree exactly show it
         return 2
     for n in range(2, MAX_PAIRS + 1):
         critical = stats.t.ppf(1 - alpha / 2, n - 1)
