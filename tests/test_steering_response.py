@@ -40,3 +40,16 @@ def test_response_measures_the_turn_unwrapped_the_speed_and_the_heading_change()
     torch.testing.assert_close(r["yaw_rate"], torch.full((2,), -0.25), atol=1e-4, rtol=0)
     torch.testing.assert_close(r["speed"], torch.full((2,), 0.4))
     assert r["heading_change"] == pytest.approx([0.25 * 7.0 * 180 / math.pi] * 2, rel=1e-4)
+
+
+def test_sampled_actions_ask_the_policy_for_its_noisy_output_and_the_default_for_its_mean():
+    asked = []
+
+    def policy(obs, **kwargs):
+        asked.append(kwargs.get("stochastic_output", False))
+
+    steering_response.response(TurningEnv(), policy, (0.5, 0.5), (0.5, 0.0, 0.0), sampled=True)
+    assert asked and all(asked)
+    asked.clear()
+    steering_response.response(TurningEnv(), policy, (0.5, 0.5), (0.5, 0.0, 0.0))
+    assert asked and not any(asked)
