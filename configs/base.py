@@ -129,9 +129,10 @@ def _init_parameters(cls: type) -> set[str]:
 def default_actor() -> ModelConfig:
     return ModelConfig(
         class_name=ACTOR_CLASSES["pci"],
-        # rsl-rl's Gaussian, sampled without a host sync per step (pchc_rsl/modules/distribution.py)
+        # rsl-rl's Gaussian, sampled without a host sync per step (pchc_rsl/modules/distribution.py); std_range is
+        # rsl-rl's default, named so that a run can cap the action noise (docs/design.md, "Action noise")
         distribution_cfg={"class_name": "pchc_rsl.modules.distribution:GaussianDistribution", "init_std": 1.0,
-                          "std_type": "log"},
+                          "std_type": "log", "std_range": [1e-6, 1e6]},
         kwargs={"routing_scale": DEFAULT_ROUTING_SCALE},  # named, so that checkpoints record it
     )
 

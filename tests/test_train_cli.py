@@ -92,6 +92,26 @@ def test_overrides_shape_the_networks_and_are_saved(tmp_path, capsys):
         assert "runner.algorithm.gamma=0.9" in config["overrides"]
 
 
+def test_a_capped_std_range_bounds_the_noise_of_the_sampled_actions():
+    """runner.actor.distribution_cfg.std_range=[1e-6,0.2] caps the toy's learned std (0.3) at 0.2: the spread of
+    actions sampled about the mean is 0.2, measured from 20,000 samples."""
+    from pchc_rsl.configs import task_config
+    from pchc_rsl.training.build import make_runner
+    from pchc_rsl.training.overrides import apply_overrides
+
+    spreads = []
+    for overrides in ([], ["runner.actor.distribution_cfg.std_range=[1e-6,0.2]"]):
+        cfg = task_config("toy")
+        apply_overrides(cfg, overrides)
+        cfg.num_envs = 20000
+        runner = make_runner(cfg)
+        obs = runner.env.get_observations()
+        actor = runner.alg.actor
+        with torch.no_grad():
+            spreads.append((actor(obs, stochastic_output=True) - actor(obs)).std().item())
+    assert spreads[0] == pytest.approx(0.3, rel=0.03) and spreads[1] == pytest.approx(0.2, rel=0.03)
+
+
 def test_the_log_is_one_line_per_iteration_and_ends_with_real_commands(tmp_path, capsys):
     run = tmp_path / "run"
     train_cli.main([*SMALL, "--max-iterations", "3", "--log-dir", str(run)])
