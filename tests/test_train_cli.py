@@ -93,7 +93,7 @@ def test_overrides_shape_the_networks_and_are_saved(tmp_path, capsys):
 
 
 def test_a_capped_std_range_bounds_the_noise_of_the_sampled_actions():
-    """runner.actor.distribution_cfg.std_range=[1e-6,0.2] caps the toy's learned std (0.3) at 0.2: the spread of
+    """runner.actor.distribution_cfg.std_range=[1e-6,0.2] caps the toy's initial std (0.3) at 0.2: the spread of
     actions sampled about the mean is 0.2, measured from 20,000 samples."""
     from pchc_rsl.configs import task_config
     from pchc_rsl.training.build import make_runner
