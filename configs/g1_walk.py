@@ -46,7 +46,8 @@ def walk_rewards() -> list[RewardTerm]:
         RewardTerm(R + "action_rate", -0.01),
         RewardTerm(R + "alive", 1.0),
         RewardTerm(R + "disturbance", 1.0, group="disturbance", params={"fall_cost": 5.0}),
-        RewardTerm(R + "stride", 1.0, group="stride", params={"speed_std": 0.25, "along_command": True}),
+        RewardTerm(R + "stride", 1.0, group="stride",
+                   params={"speed_std": 0.25, "along_command": True, "fall_cost": 0.0}),
     ]
 
 

@@ -150,7 +150,7 @@ def alive(env) -> torch.Tensor:
 
 
 def stride(env, along_heading: bool = True, min_command: float = 0.1, speed_std: float | None = None,
-           along_command: bool = False) -> torch.Tensor:
+           along_command: bool = False, fall_cost: float = 0.0) -> torch.Tensor:
     """The paper's r_stride = I_contact ||p_current - p_last_contact||, read per step: every step a foot is in
     contact (I_contact, a state) it pays the length of the step that put it there, from the point where it last
     touched the ground before this stance (p_last_contact) to where it stands now (p_current).
@@ -175,7 +175,10 @@ def stride(env, along_heading: bool = True, min_command: float = 0.1, speed_std:
     faster: the walker trained from scratch on this reading reached 1.5 m/s at (0, 1) when told 0.5 (its forward
     step 0.48 m at 2.9 steps/s). With it, at the commanded speed the reading above holds (the gate is 1), and a
     longer step can only be bought with a slower cadence, the paper's "longer strides" at a given speed
-    (docs/design.md, "The stride speed gate")."""
+    (docs/design.md, "The stride speed gate").
+
+    ``fall_cost``: as r_disturb's. A fall ends the episode and with it the stride pay, which at the end that weights
+    stride alone is the only price of falling. Not in the paper's equation: docs/design.md, "Fall costs"."""
     step = env.feet.stance_step  # [N, foot, (forward, lateral)], 0 in the air
     if along_command:
         direction = env.commands[:, :2] / env.commands[:, :2].norm(dim=-1, keepdim=True).clamp(min=1e-6)
@@ -189,7 +192,7 @@ def stride(env, along_heading: bool = True, min_command: float = 0.1, speed_std:
     if speed_std is not None:
         error = ((env.commands[:, :2] - env.robot.base_lin_vel[:, :2]) ** 2).sum(-1)
         reward = reward * torch.exp(-error / speed_std**2)
-    return reward
+    return reward - charged_fall(env, fall_cost)
 
 
 def disturbance(env, vertical: bool = False, fall_cost: float = 0.0, com: bool = False) -> torch.Tensor:

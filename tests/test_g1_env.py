@@ -426,6 +426,8 @@ def test_walking_fall_cost_charges_a_terminating_fall():
     robot.base_pos[0, 2] = env.cfg.termination_height - 0.1
     reward = g1_rewards.disturbance(env, fall_cost=2.0) - g1_rewards.disturbance(env)
     torch.testing.assert_close(reward * env.dt, torch.tensor([-2.0, 0.0]))
+    reward = g1_rewards.stride(env, speed_std=0.25, fall_cost=2.0) - g1_rewards.stride(env, speed_std=0.25)
+    torch.testing.assert_close(reward * env.dt, torch.tensor([-2.0, 0.0]))
 
 
 def test_backward_touchdown_counts_feet_landing_behind_while_walking_is_commanded():
