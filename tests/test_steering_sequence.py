@@ -16,3 +16,13 @@ def test_commands_integrate_to_the_pose_they_describe():
     assert (x, y) == pytest.approx((0.4, 1.0), abs=1e-3)
     x, y, _ = steering.integrate_commands([("stand", 3.0, (0.0, 0.0, 0.0))], dt=0.02, start_xy=(2.0, -1.0))
     assert (x, y) == (2.0, -1.0)
+
+
+def test_phase_offset_is_measured_in_the_frame_the_phase_started_in():
+    """Facing +y at the origin, 2 s forward at 0.5 m/s ends at (0, 1); ending at (0.1, 0.8) is 0.2 m short and
+    0.1 m to the right (the robot's left is -x). Turning on the spot does not move the commanded point."""
+    steering = load_tool("steering_sequence")
+    ahead, left = steering.phase_offset((0.0, 0.0), math.pi / 2, (0.1, 0.8), ("forward", 2.0, (0.5, 0.0, 0.0)), 0.02)
+    assert (ahead, left) == pytest.approx((-0.2, -0.1), abs=1e-9)
+    ahead, left = steering.phase_offset((1.0, 2.0), 0.0, (1.0, 2.3), ("turn", 3.0, (0.0, 0.0, 0.5)), 0.02)
+    assert (ahead, left) == pytest.approx((0.0, 0.3), abs=1e-9)

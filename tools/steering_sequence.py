@@ -35,9 +35,18 @@ def integrate_commands(sequence, dt: float, start_xy=(0.0, 0.0), start_yaw: floa
     return x, y, yaw
 
 
+def phase_offset(start_xy, start_yaw: float, end_xy, phase, dt: float) -> tuple[float, float]:
+    """Where one phase ended against where its command takes the robot from the phase's own start pose: (ahead,
+    left) in metres, in the frame of the heading the phase started with (negative ahead: it fell short)."""
+    x, y, _ = integrate_commands([phase], dt, start_xy, start_yaw)
+    dx, dy = float(end_xy[0]) - x, float(end_xy[1]) - y
+    c, s = math.cos(start_yaw), math.sin(start_yaw)
+    return dx * c + dy * s, -dx * s + dy * c
+
+
 def run_sequence(env, policy, preference, sequence=SEQUENCE) -> dict:
     """One pass of ``sequence`` in every env at ``preference``: per env the end point's distance from the commanded
-    one (m), the heading error (deg), and whether it fell."""
+    one (m), the heading error (deg), whether it fell, and per phase its ``phase_offset`` (ahead, left)."""
     with torch.inference_mode():
         env.set_preference(preference)
         env.reset()
@@ -45,11 +54,16 @@ def run_sequence(env, policy, preference, sequence=SEQUENCE) -> dict:
         start_xy = env.robot.base_pos[:, :2].clone()
         start_yaw = env.robot.yaw.clone()
         fell = torch.zeros(env.num_envs, dtype=torch.bool)
-        for _, seconds, command in sequence:
+        phase_offsets = []
+        for phase in sequence:
+            _, seconds, command = phase
+            phase_xy, phase_yaw = env.robot.base_pos[:, :2].clone(), env.robot.yaw.clone()
             for _ in range(int(round(seconds / env.dt))):
                 env.commands[:] = torch.tensor(command)
                 obs, _, dones, extras = env.step(policy(obs))
                 fell |= dones.bool() & ~extras["time_outs"].bool()
+            phase_offsets.append([phase_offset(phase_xy[i].tolist(), float(phase_yaw[i]), env.robot.base_pos[i, :2],
+                                               phase, env.dt) for i in range(env.num_envs)])
         end_xy, end_yaw = env.robot.base_pos[:, :2], env.robot.yaw
     errors, headings = [], []
     for i in range(env.num_envs):
@@ -57,7 +71,8 @@ def run_sequence(env, policy, preference, sequence=SEQUENCE) -> dict:
         errors.append(math.hypot(float(end_xy[i, 0]) - x, float(end_xy[i, 1]) - y))
         headings.append(abs(math.degrees(math.remainder(float(end_yaw[i]) - yaw, 2 * math.pi))))
     kept = [i for i in range(env.num_envs) if not fell[i]]
-    return {"falls": int(fell.sum()), "end_error": [errors[i] for i in kept], "heading_error": [headings[i] for i in kept]}
+    return {"falls": int(fell.sum()), "end_error": [errors[i] for i in kept], "heading_error": [headings[i] for i in kept],
+            "phase_offsets": [[offsets[i] for i in kept] for offsets in phase_offsets]}
 
 
 def main() -> None:
@@ -67,6 +82,8 @@ def main() -> None:
     parser.add_argument("--num-envs", type=int, default=16)
     parser.add_argument("--preferences", type=int, default=5, help="evenly spaced from (1, 0) to (0, 1)")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--phases", action="store_true",
+                        help="also each phase's end against its own command from the phase's start pose")
     args = parser.parse_args()
 
     from pchc_rsl.evaluation.checkpoint import load_policy
@@ -78,12 +95,21 @@ def main() -> None:
           + ", then ".join(f"{name} {s:g} s {c}" for name, s, c in SEQUENCE))
     print("| Preference | Falls | End point off, median (m) | max (m) | Heading off, median (deg) |")
     print("|---|---|---|---|---|")
+    phases = []
     for preference in evenly_spaced_preferences(args.preferences):
         r = run_sequence(env, policy, preference)
         error, heading = torch.tensor(r["end_error"] or [math.nan]), torch.tensor(r["heading_error"] or [math.nan])
         shown = ", ".join(f"{x:.2f}" for x in preference)
         print(f"| ({shown}) | {r['falls']}/{args.num_envs} | {error.median():.2f} | {error.max():.2f} "
               f"| {heading.median():.1f} |", flush=True)
+        phases.append((shown, r["phase_offsets"]))
+    if args.phases:
+        print("\nEach phase from its own start pose: median (ahead, left) offset of its end from its command's, m")
+        print("| Preference | " + " | ".join(name for name, _, _ in SEQUENCE) + " |")
+        print("|---" * (len(SEQUENCE) + 1) + "|")
+        for shown, offsets in phases:
+            medians = [torch.tensor(o or [(math.nan, math.nan)]).median(dim=0).values for o in offsets]
+            print(f"| ({shown}) | " + " | ".join(f"{ahead:+.2f}, {left:+.2f}" for ahead, left in medians) + " |")
 
 
 if __name__ == "__main__":
