@@ -92,6 +92,15 @@ def test_overrides_shape_the_networks_and_are_saved(tmp_path, capsys):
         assert "runner.algorithm.gamma=0.9" in config["overrides"]
 
 
+def test_a_changed_dict_is_listed_by_its_changed_entries_unless_its_keys_changed():
+    """Setting one entry lists that entry alone; replacing a dict by one with other keys lists the dict, so the lost
+    key shows."""
+    one_entry = ({"p": {"x": 1, "y": 2}, "p.x": 1, "p.y": 2}, {"p": {"x": 3, "y": 2}, "p.x": 3, "p.y": 2})
+    assert train_cli._most_specific(["p", "p.x"], *one_entry) == ["p.x"]
+    lost_key = ({"p": {"x": 1, "y": 2}, "p.x": 1, "p.y": 2}, {"p": {"x": 3}, "p.x": 3})
+    assert train_cli._most_specific(["p", "p.x"], *lost_key) == ["p", "p.x"]
+
+
 def test_a_capped_std_range_bounds_the_noise_of_the_sampled_actions():
     """runner.actor.distribution_cfg.std_range=[1e-6,0.2] caps the toy's initial std (0.3) at 0.2: the spread of
     actions sampled about the mean is 0.2, measured from 20,000 samples."""

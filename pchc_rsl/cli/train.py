@@ -169,7 +169,7 @@ def resolve(args) -> tuple:
     check_task_config(cfg)
 
     after = {k: v[3] for k, v in config_fields(cfg, aliases=False).items()}
-    changed = [k for k, v in after.items() if before.get(k) != v]
+    changed = _most_specific([k for k, v in after.items() if before.get(k) != v], before, after)
     if args.resume:
         shown = ", ".join(f"{k} {_show(before.get(k))} -> {_show(after[k])}" for k in changed)
         notes.append(f"continuing {args.resume} with its config" + (f"; overridden: {shown}" if shown else ""))
@@ -186,6 +186,16 @@ def resolve(args) -> tuple:
         config["initialised_from"] = os.path.abspath(args.init_from)
         notes.append(f"networks start from {args.init_from}'s weights; fresh optimizer, iterations from 0")
     return cfg, config, notes
+
+
+def _most_specific(changed: list[str], before: dict, after: dict) -> list[str]:
+    """The changed keys without a dict whose entries say the same: ``a.b.c=1`` rather than also ``a.b={...}``. A dict
+    that gained or lost keys stays listed whole, so its shape change is not lost."""
+    def described_by_entries(key: str) -> bool:
+        old, new = before.get(key), after[key]
+        return (isinstance(old, dict) and isinstance(new, dict) and old.keys() == new.keys()
+                and any(other.startswith(key + ".") for other in changed))
+    return [k for k in changed if not described_by_entries(k)]
 
 
 def train(cfg, config: dict, log_dir: str, args) -> None:
