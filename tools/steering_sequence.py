@@ -16,6 +16,7 @@ import math
 
 import torch
 
+from pchc_rsl.deploy.end_point import in_start_frame
 from pchc_rsl.evaluation import evenly_spaced_preferences
 
 SEQUENCE = [("forward", 3.0, (0.5, 0.0, 0.0)), ("turn left", 3.0, (0.3, 0.0, 0.5)),
@@ -38,10 +39,10 @@ def integrate_commands(sequence, dt: float, start_xy=(0.0, 0.0), start_yaw: floa
 def phase_offset(start_xy, start_yaw: float, end_xy, phase, dt: float) -> tuple[float, float]:
     """Where one phase ended against where its command takes the robot from the phase's own start pose: (ahead,
     left) in metres, in the frame of the heading the phase started with (negative ahead: it fell short)."""
-    x, y, _ = integrate_commands([phase], dt, start_xy, start_yaw)
-    dx, dy = float(end_xy[0]) - x, float(end_xy[1]) - y
-    c, s = math.cos(start_yaw), math.sin(start_yaw)
-    return dx * c + dy * s, -dx * s + dy * c
+    start = (float(start_xy[0]), float(start_xy[1]), float(start_yaw))
+    commanded = in_start_frame(start, integrate_commands([phase], dt, start_xy, start_yaw))
+    reached = in_start_frame(start, (float(end_xy[0]), float(end_xy[1]), start_yaw))
+    return reached[0] - commanded[0], reached[1] - commanded[1]
 
 
 def run_sequence(env, policy, preference, sequence=SEQUENCE) -> dict:
