@@ -5,8 +5,8 @@ ends with where the commands integrate to, per preference, pushes off.
 
 Why: tracking errors averaged over an episode can hide a walker that lags every change of command or drifts while
 it stands; the end point of a whole sequence is what an operator steering it sees. The commanded pose is
-integrated from the start pose with the commanded body-frame velocities: heading += w dt, position += R(heading)
-(v_x, v_y) dt.
+integrated from the start pose with exact arcs, as ``pchc-deploy --command-sequence`` reports it
+(``pchc_rsl.deploy.end_point``).
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import math
 
 import torch
 
-from pchc_rsl.deploy.end_point import in_start_frame
+from pchc_rsl.deploy.end_point import in_start_frame, integrate_twist
 from pchc_rsl.evaluation import evenly_spaced_preferences
 
 SEQUENCE = [("forward", 3.0, (0.5, 0.0, 0.0)), ("turn left", 3.0, (0.3, 0.0, 0.5)),
@@ -25,22 +25,17 @@ SEQUENCE = [("forward", 3.0, (0.5, 0.0, 0.0)), ("turn left", 3.0, (0.3, 0.0, 0.5
 """(name, seconds, (v_x m/s, v_y m/s, w_z rad/s))."""
 
 
-def integrate_commands(sequence, dt: float, start_xy=(0.0, 0.0), start_yaw: float = 0.0) -> tuple[float, float, float]:
-    """The pose (x, y, yaw) a robot reaches that follows the body-frame velocity commands exactly."""
-    x, y, yaw = float(start_xy[0]), float(start_xy[1]), float(start_yaw)
-    for _, seconds, (vx, vy, wz) in sequence:
-        for _ in range(int(round(seconds / dt))):
-            x += (vx * math.cos(yaw) - vy * math.sin(yaw)) * dt
-            y += (vx * math.sin(yaw) + vy * math.cos(yaw)) * dt
-            yaw += wz * dt
-    return x, y, yaw
+def integrate_commands(sequence, start_xy=(0.0, 0.0), start_yaw: float = 0.0) -> tuple[float, float, float]:
+    """The pose (x, y, yaw) a robot reaches that follows the body-frame velocity commands of ``sequence`` exactly."""
+    start = (float(start_xy[0]), float(start_xy[1]), float(start_yaw))
+    return integrate_twist([(seconds, command) for _, seconds, command in sequence], start)
 
 
-def phase_offset(start_xy, start_yaw: float, end_xy, phase, dt: float) -> tuple[float, float]:
+def phase_offset(start_xy, start_yaw: float, end_xy, phase) -> tuple[float, float]:
     """Where one phase ended against where its command takes the robot from the phase's own start pose: (ahead,
     left) in metres, in the frame of the heading the phase started with (negative ahead: it fell short)."""
     start = (float(start_xy[0]), float(start_xy[1]), float(start_yaw))
-    commanded = in_start_frame(start, integrate_commands([phase], dt, start_xy, start_yaw))
+    commanded = in_start_frame(start, integrate_commands([phase], start_xy, start_yaw))
     reached = in_start_frame(start, (float(end_xy[0]), float(end_xy[1]), start_yaw))
     return reached[0] - commanded[0], reached[1] - commanded[1]
 
@@ -64,11 +59,11 @@ def run_sequence(env, policy, preference, sequence=SEQUENCE) -> dict:
                 obs, _, dones, extras = env.step(policy(obs))
                 fell |= dones.bool() & ~extras["time_outs"].bool()
             phase_offsets.append([phase_offset(phase_xy[i].tolist(), float(phase_yaw[i]), env.robot.base_pos[i, :2],
-                                               phase, env.dt) for i in range(env.num_envs)])
+                                               phase) for i in range(env.num_envs)])
         end_xy, end_yaw = env.robot.base_pos[:, :2], env.robot.yaw
     errors, headings = [], []
     for i in range(env.num_envs):
-        x, y, yaw = integrate_commands(sequence, env.dt, start_xy[i].tolist(), float(start_yaw[i]))
+        x, y, yaw = integrate_commands(sequence, start_xy[i].tolist(), float(start_yaw[i]))
         errors.append(math.hypot(float(end_xy[i, 0]) - x, float(end_xy[i, 1]) - y))
         headings.append(abs(math.degrees(math.remainder(float(end_yaw[i]) - yaw, 2 * math.pi))))
     kept = [i for i in range(env.num_envs) if not fell[i]]
