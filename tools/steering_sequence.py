@@ -35,7 +35,8 @@ def phase_offset(start_xy, start_yaw: float, end_xy, phase) -> tuple[float, floa
     """Where one phase ended against where its command takes the robot from the phase's own start pose: (ahead,
     left) in metres, in the frame of the heading the phase started with (negative ahead: it fell short)."""
     start = (float(start_xy[0]), float(start_xy[1]), float(start_yaw))
-    commanded = in_start_frame(start, integrate_commands([phase], start_xy, start_yaw))
+    _, seconds, command = phase
+    commanded = in_start_frame(start, integrate_twist([(seconds, command)], start))
     reached = in_start_frame(start, (float(end_xy[0]), float(end_xy[1]), start_yaw))
     return reached[0] - commanded[0], reached[1] - commanded[1]
 
