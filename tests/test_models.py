@@ -1,4 +1,6 @@
+import numpy as np
 import pytest
+import scipy.stats
 import torch
 from tensordict import TensorDict
 
@@ -108,3 +110,36 @@ def test_expert_weights_are_the_weights_the_actor_mixes_with():
     expected = torch.softmax(gated.mlp.gate(gated.mlp.features(latent)), dim=-1)
     torch.testing.assert_close(gated.expert_weights(obs), expected)
     assert gated.expert_weights(obs).shape == (N, 5)
+
+
+def test_objective_noise_scales_scale_the_training_noise_by_lambda():
+    """Sampled actions around the mean have std = learned std * (lambda . scales); log-probabilities follow scipy's
+    normal density with that std, and the deterministic output is untouched."""
+    n = 20000
+    obs = make_obs(n=n)
+    lam = torch.rand(n, 1)
+    obs["preference"] = torch.cat([lam, 1 - lam], dim=-1)
+    ours = {"class_name": "pchc_rsl.modules.distribution:GaussianDistribution", "init_std": 0.8}
+    actor = PCIActor(obs, GROUPS, "actor", 3, hidden_dims=[16], distribution_cfg=ours,
+                     objective_noise_scales=[0.5, 2.0])
+    torch.manual_seed(3)
+    with torch.no_grad():
+        actions = actor(obs, stochastic_output=True)
+        mean = actor(obs)
+    expected_std = 0.8 * (0.5 * lam + 2.0 * (1 - lam))
+    z = (actions - mean) / expected_std
+    assert abs(z.std().item() - 1.0) < 0.02 and abs(z.mean().item()) < 0.02
+    logp = scipy.stats.norm.logpdf(actions.numpy(), mean.numpy(), expected_std.numpy()).sum(-1)
+    np.testing.assert_allclose(actor.get_output_log_prob(actions).detach().numpy(), logp, rtol=1e-4, atol=1e-3)
+    plain = PCIActor(obs, GROUPS, "actor", 3, hidden_dims=[16], distribution_cfg=ours)
+    plain.load_state_dict(actor.state_dict())
+    torch.testing.assert_close(plain(obs), mean)
+
+
+def test_objective_noise_scales_are_checked():
+    obs = make_obs()
+    ours = {"class_name": "pchc_rsl.modules.distribution:GaussianDistribution"}
+    with pytest.raises(ValueError, match="2 positive factors"):
+        PCIActor(obs, GROUPS, "actor", 3, distribution_cfg=ours, objective_noise_scales=[1.0])
+    with pytest.raises(ValueError, match="scale_std"):
+        PCIActor(obs, GROUPS, "actor", 3, distribution_cfg=GAUSSIAN, objective_noise_scales=[1.0, 1.0])

@@ -22,6 +22,7 @@ from tensordict import TensorDict
 
 from rsl_rl.models import MLPModel
 from rsl_rl.modules import MLP, HiddenState
+from rsl_rl.utils import unpad_trajectories
 from rsl_rl.utils import resolve_nn_activation
 
 from pchc_rsl.preference import DEFAULT_ROUTING_SCALE, expert_positions_on_simplex, routing_weights, simplex_lattice
@@ -45,10 +46,44 @@ class PreferenceMLPModel(MLPModel):
         obs_normalization: bool = False,
         distribution_cfg: dict | None = None,
         preference_group: str = "preference",
+        objective_noise_scales: list[float] | None = None,
     ) -> None:
         self.preference_group = preference_group
         super().__init__(obs, obs_groups, obs_set, output_dim, hidden_dims, activation, obs_normalization,
                          distribution_cfg)
+        self.objective_noise_scales = self._check_noise_scales(objective_noise_scales)
+        if self.objective_noise_scales is not None:  # not persistent: checkpoints load with or without it
+            self.register_buffer("noise_scales", torch.tensor(self.objective_noise_scales), persistent=False)
+
+    def _check_noise_scales(self, scales: list[float] | None) -> list[float] | None:
+        """Training's action noise at lambda is the distribution's std times lambda . scales: one factor per
+        objective, so exploration can be quieter at one end of the simplex than at another. None: the same noise
+        at every lambda (rsl-rl's behaviour)."""
+        if scales is None:
+            return None
+        scales = [float(s) for s in scales]
+        if len(scales) != self.preference_dim or min(scales) <= 0.0:
+            raise ValueError(f"objective_noise_scales needs {self.preference_dim} positive factors (one per "
+                             f"objective), got {scales}.")
+        if self.distribution is None or not hasattr(self.distribution, "scale_std"):
+            raise ValueError("objective_noise_scales needs a distribution with scale_std, e.g. "
+                             "pchc_rsl.modules.distribution:GaussianDistribution.")
+        return scales
+
+    def forward(
+        self,
+        obs: TensorDict,
+        masks: torch.Tensor | None = None,
+        hidden_state: HiddenState = None,
+        stochastic_output: bool = False,
+    ) -> torch.Tensor:
+        """rsl-rl's forward; a sample's noise is scaled by its preference when objective_noise_scales is set."""
+        if not stochastic_output or self.objective_noise_scales is None:
+            return super().forward(obs, masks, hidden_state, stochastic_output)
+        obs = unpad_trajectories(obs, masks) if masks is not None and not self.is_recurrent else obs
+        self.distribution.update(self.mlp(self.get_latent(obs, masks, hidden_state)))
+        self.distribution.scale_std((obs[self.preference_group] @ self.noise_scales).unsqueeze(-1))
+        return self.distribution.sample()
 
     def _get_obs_dim(self, obs: TensorDict, obs_groups: dict[str, list[str]], obs_set: str) -> tuple[list[str], int]:
         groups = obs_groups[obs_set]
@@ -240,10 +275,11 @@ class _MixtureActor(PreferenceMLPModel):
         encoder_hidden_dims: tuple[int, ...] | list[int] = (128,),
         history_latent_dim: int = 32,
         experts_see_preference: bool = True,
+        objective_noise_scales: list[float] | None = None,
     ) -> None:
         # The base builds a throwaway MLP of hidden_dims; keep it tiny, the experts get hidden_dims below.
         super().__init__(obs, obs_groups, obs_set, output_dim, [1], activation, obs_normalization,
-                         distribution_cfg, preference_group)
+                         distribution_cfg, preference_group, objective_noise_scales)
         self.head_kwargs = dict(
             obs_dim=self.obs_dim,
             history=self._locate_history(obs, history_group, history_length),
