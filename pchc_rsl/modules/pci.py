@@ -22,8 +22,7 @@ from tensordict import TensorDict
 
 from rsl_rl.models import MLPModel
 from rsl_rl.modules import MLP, HiddenState
-from rsl_rl.utils import unpad_trajectories
-from rsl_rl.utils import resolve_nn_activation
+from rsl_rl.utils import resolve_nn_activation, unpad_trajectories
 
 from pchc_rsl.preference import DEFAULT_ROUTING_SCALE, expert_positions_on_simplex, routing_weights, simplex_lattice
 
