@@ -128,7 +128,8 @@ def test_objective_noise_scales_scale_the_training_noise_by_lambda():
         mean = actor(obs)
     expected_std = 0.8 * (0.5 * lam + 2.0 * (1 - lam))
     z = (actions - mean) / expected_std
-    assert abs(z.std().item() - 1.0) < 0.02 and abs(z.mean().item()) < 0.02
+    for half in (lam[:, 0] < 0.5, lam[:, 0] >= 0.5):  # each half alone: unscaled noise gives 0.63 and 1.26 there
+        assert abs(z[half].std().item() - 1.0) < 0.03 and abs(z[half].mean().item()) < 0.03
     logp = scipy.stats.norm.logpdf(actions.numpy(), mean.numpy(), expected_std.numpy()).sum(-1)
     np.testing.assert_allclose(actor.get_output_log_prob(actions).detach().numpy(), logp, rtol=1e-4, atol=1e-3)
     plain = PCIActor(obs, GROUPS, "actor", 3, hidden_dims=[16], distribution_cfg=ours)
