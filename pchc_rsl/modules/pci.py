@@ -50,11 +50,10 @@ class PreferenceMLPModel(MLPModel):
         self.preference_group = preference_group
         super().__init__(obs, obs_groups, obs_set, output_dim, hidden_dims, activation, obs_normalization,
                          distribution_cfg)
-        self.objective_noise_scales = self._check_noise_scales(objective_noise_scales)
-        if self.objective_noise_scales is not None:  # not persistent: checkpoints load with or without it
-            self.register_buffer("noise_scales", torch.tensor(self.objective_noise_scales), persistent=False)
+        # not persistent: checkpoints load with or without it
+        self.register_buffer("noise_scales", self._check_noise_scales(objective_noise_scales), persistent=False)
 
-    def _check_noise_scales(self, scales: list[float] | None) -> list[float] | None:
+    def _check_noise_scales(self, scales: list[float] | None) -> torch.Tensor | None:
         """Training's action noise at lambda is the distribution's std times lambda . scales: one factor per
         objective, so exploration can be quieter at one end of the simplex than at another. None: the same noise
         at every lambda (rsl-rl's behaviour)."""
@@ -67,7 +66,7 @@ class PreferenceMLPModel(MLPModel):
         if self.distribution is None or not hasattr(self.distribution, "scale_std"):
             raise ValueError("objective_noise_scales needs a distribution with scale_std, e.g. "
                              "pchc_rsl.modules.distribution:GaussianDistribution.")
-        return scales
+        return torch.tensor(scales)
 
     def forward(
         self,
@@ -77,7 +76,7 @@ class PreferenceMLPModel(MLPModel):
         stochastic_output: bool = False,
     ) -> torch.Tensor:
         """rsl-rl's forward; a sample's noise is scaled by its preference when objective_noise_scales is set."""
-        if not stochastic_output or self.objective_noise_scales is None:
+        if not stochastic_output or self.noise_scales is None:
             return super().forward(obs, masks, hidden_state, stochastic_output)
         obs = unpad_trajectories(obs, masks) if masks is not None and not self.is_recurrent else obs
         self.distribution.update(self.mlp(self.get_latent(obs, masks, hidden_state)))
