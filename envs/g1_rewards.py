@@ -150,7 +150,7 @@ def alive(env) -> torch.Tensor:
 
 
 def stride(env, along_heading: bool = True, min_command: float = 0.1, speed_std: float | None = None,
-           along_command: bool = False, fall_cost: float = 0.0) -> torch.Tensor:
+           along_command: bool = False, fall_cost: float = 0.0, at_command_speed: bool = False) -> torch.Tensor:
     """The paper's r_stride = I_contact ||p_current - p_last_contact||, read per step: every step a foot is in
     contact (I_contact, a state) it pays the length of the step that put it there, from the point where it last
     touched the ground before this stance (p_last_contact) to where it stands now (p_current).
@@ -177,6 +177,12 @@ def stride(env, along_heading: bool = True, min_command: float = 0.1, speed_std:
     longer step can only be bought with a slower cadence, the paper's "longer strides" at a given speed
     (docs/design.md, "The stride speed gate").
 
+    ``at_command_speed`` pays a step walked faster than commanded as the step that the same cadence would make at
+    the commanded speed: length x min(1, |v_cmd| / v), v the base's speed along the commanded direction. At a given
+    cadence the step grows with v, so even gated the pay grows with v up to where v (v - |v_cmd|) = speed_std^2 / 2
+    (0.56 m/s told 0.5, 0.38 told 0.3, for the gate at 0.25); scaled this way it stops growing at the command, and
+    only a slower cadence earns a longer step (docs/design.md, "The stride speed gate").
+
     ``fall_cost``: as r_disturb's. A fall ends the episode and with it the stride pay, which at the end that weights
     stride alone is the only price of falling. Not in the paper's equation: docs/design.md, "Fall costs"."""
     step = env.feet.stance_step  # [N, foot, (forward, lateral)], 0 in the air
@@ -187,8 +193,12 @@ def stride(env, along_heading: bool = True, min_command: float = 0.1, speed_std:
         length = step[..., 0].clamp(min=0.0)
     else:
         length = step.norm(dim=-1)
-    moving = env.commands[:, :2].norm(dim=-1) >= min_command
-    reward = length.sum(-1) * moving
+    commanded_speed = env.commands[:, :2].norm(dim=-1)
+    reward = length.sum(-1) * (commanded_speed >= min_command)
+    if at_command_speed:
+        direction = env.commands[:, :2] / commanded_speed.unsqueeze(-1).clamp(min=1e-6)
+        speed = (env.robot.base_lin_vel[:, :2] * direction).sum(-1)
+        reward = reward * (commanded_speed / speed.clamp(min=1e-6)).clamp(max=1.0)
     if speed_std is not None:
         error = ((env.commands[:, :2] - env.robot.base_lin_vel[:, :2]) ** 2).sum(-1)
         reward = reward * torch.exp(-error / speed_std**2)

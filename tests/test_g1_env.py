@@ -164,6 +164,22 @@ def test_stride_reward_gated_by_speed_pays_nothing_for_walking_faster():
     torch.testing.assert_close(g1_rewards.stride(env), torch.full((3,), 0.3))  # ungated, as before
 
 
+def test_stride_reward_at_command_speed_pays_a_faster_walk_as_the_commanded_one():
+    """at_command_speed: a 0.3 m step walked at twice the commanded 0.5 m/s pays the 0.15 m its cadence makes at
+    0.5 m/s; a slower walk pays its whole step; told 0.3 m/s sideways and stepping 0.2 m left at 0.6 m/s, 0.1."""
+    from pchc_rsl.envs import g1_rewards
+
+    env = make_walk_env(num_envs=4)
+    env.feet.stance_step[:] = torch.tensor([[[0.3, 0.0], [0.0, 0.0]], [[0.3, 0.0], [0.0, 0.0]],
+                                            [[0.3, 0.0], [0.0, 0.0]], [[0.0, 0.2], [0.0, 0.0]]])
+    env.commands[:] = torch.tensor([[0.5, 0, 0], [0.5, 0, 0], [0.5, 0, 0], [0.0, 0.3, 0]])
+    env.robot.base_lin_vel = torch.tensor([[0.5, 0.0, 0.0], [1.0, 0.0, 0.0], [0.4, 0.0, 0.0], [0.0, 0.6, 0.0]])
+    reward = g1_rewards.stride(env, along_command=True, at_command_speed=True)
+    torch.testing.assert_close(reward, torch.tensor([0.3, 0.15, 0.3, 0.1]))
+    gated = g1_rewards.stride(env, along_command=True, at_command_speed=True, speed_std=0.25)
+    torch.testing.assert_close(gated[1], torch.tensor(0.15 * math.exp(-4.0)))
+
+
 def test_action_delay_holds_the_previous_target_for_the_first_substeps():
     """env.action_delay_s (0.01, 0.01) on the fast physics (5 ms substeps): 2 of the 4 substeps hold the old
     target; the physics receives one control per substep."""
