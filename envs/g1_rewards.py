@@ -150,7 +150,8 @@ def alive(env) -> torch.Tensor:
 
 
 def stride(env, along_heading: bool = True, min_command: float = 0.1, speed_std: float | None = None,
-           along_command: bool = False, fall_cost: float = 0.0, at_command_speed: bool = False) -> torch.Tensor:
+           along_command: bool = False, fall_cost: float = 0.0, at_command_speed: bool = False,
+           path_std: float | None = None) -> torch.Tensor:
     """The paper's r_stride = I_contact ||p_current - p_last_contact||, read per step: every step a foot is in
     contact (I_contact, a state) it pays the length of the step that put it there, from the point where it last
     touched the ground before this stance (p_last_contact) to where it stands now (p_current).
@@ -183,6 +184,10 @@ def stride(env, along_heading: bool = True, min_command: float = 0.1, speed_std:
     (0.56 m/s told 0.5, 0.38 told 0.3, for the gate at 0.25); scaled this way it stops growing at the command, and
     only a slower cadence earns a longer step (docs/design.md, "The stride speed gate").
 
+    ``path_std`` (m; None: off) pays the step only as far as the base stays where its commands take it, times
+    exp(-||e||^2 / path_std^2) with e ``position_hold``'s error. A few cm/s too fast barely lower the speed gate,
+    but they add up in e.
+
     ``fall_cost``: as r_disturb's. A fall ends the episode and with it the stride pay, which at the end that weights
     stride alone is the only price of falling. Not in the paper's equation: docs/design.md, "Fall costs"."""
     step = env.feet.stance_step  # [N, foot, (forward, lateral)], 0 in the air
@@ -202,6 +207,8 @@ def stride(env, along_heading: bool = True, min_command: float = 0.1, speed_std:
     if speed_std is not None:
         error = ((env.commands[:, :2] - env.robot.base_lin_vel[:, :2]) ** 2).sum(-1)
         reward = reward * torch.exp(-error / speed_std**2)
+    if path_std is not None:
+        reward = reward * torch.exp(-(env.commanded_path.error(env.robot.base_pos[:, :2]) ** 2).sum(-1) / path_std**2)
     return reward - charged_fall(env, fall_cost)
 
 

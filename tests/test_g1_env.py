@@ -180,6 +180,21 @@ def test_stride_reward_at_command_speed_pays_a_faster_walk_as_the_commanded_one(
     torch.testing.assert_close(gated[1], torch.tensor(0.15 * math.exp(-4.0)))
 
 
+def test_stride_reward_gated_by_path_pays_less_the_further_the_base_is_from_its_commanded_path():
+    """path_std 0.25: a 0.3 m step on the path pays 0.3; 0.25 m ahead of it, 0.3 e^-1; 0.5 m aside, 0.3 e^-4."""
+    from pchc_rsl.envs import g1_rewards
+
+    env = make_walk_env(num_envs=3)
+    env.feet.stance_step[:] = torch.tensor([[0.3, 0.0], [0.0, 0.0]])
+    env.commands[:] = torch.tensor([0.5, 0.0, 0.0])
+    env.commanded_path.position = torch.tensor([[1.0, 2.0], [1.0, 2.0], [1.0, 2.0]])
+    base_pos = env.robot.base_pos.clone()
+    base_pos[:, :2] = torch.tensor([[1.0, 2.0], [1.25, 2.0], [1.0, 2.5]])
+    env.robot.base_pos = base_pos
+    expected = torch.tensor([0.3, 0.3 * math.exp(-1.0), 0.3 * math.exp(-4.0)])
+    torch.testing.assert_close(g1_rewards.stride(env, path_std=0.25), expected)
+
+
 def test_action_delay_holds_the_previous_target_for_the_first_substeps():
     """env.action_delay_s (0.01, 0.01) on the fast physics (5 ms substeps): 2 of the 4 substeps hold the old
     target; the physics receives one control per substep."""
