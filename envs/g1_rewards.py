@@ -182,7 +182,8 @@ def stride(env, along_heading: bool = True, min_command: float = 0.1, speed_std:
     the commanded speed: length x min(1, |v_cmd| / v), v the base's speed along the commanded direction. At a given
     cadence the step grows with v, so even gated the pay grows with v up to where v (v - |v_cmd|) = speed_std^2 / 2
     (0.56 m/s told 0.5, 0.38 told 0.3, for the gate at 0.25); scaled this way it stops growing at the command, and
-    only a slower cadence earns a longer step (docs/design.md, "The stride speed gate").
+    only a slower cadence earns a longer step. Measured, it does not hold the stride end to its command
+    (docs/design.md, "Action noise"), so the walking config leaves it off.
 
     ``path_std`` (m; None: off) pays the step only as far as the base stays where its commands take it, times
     exp(-||e||^2 / path_std^2) with e ``position_hold``'s error. A few cm/s too fast barely lower the speed gate,
