@@ -185,31 +185,31 @@ def stride(env, along_heading: bool = True, min_command: float = 0.1, speed_std:
     only a slower cadence earns a longer step. Measured, it does not hold the stride end to its command
     (docs/design.md, "Action noise"), so the walking config leaves it off.
 
-    ``path_std`` (m; None: off) pays the step only as far as the base stays where its commands take it, times
-    exp(-||e||^2 / path_std^2) with e ``position_hold``'s error. A few cm/s too fast barely lower the speed gate,
-    but they add up in e.
+    ``path_std`` (m; None: off) multiplies the pay by ``position_hold`` with path_std as its std, so that a step is
+    paid only as far as the base stays where its commands take it: a few cm/s too fast barely lower the speed gate,
+    but they add up in the distance from the path. Measured, it trades the stride end's creep for the middle's (docs/design.md, "Action
+    noise"), so the walking config leaves it off.
 
     ``fall_cost``: as r_disturb's. A fall ends the episode and with it the stride pay, which at the end that weights
     stride alone is the only price of falling. Not in the paper's equation: docs/design.md, "Fall costs"."""
     step = env.feet.stance_step  # [N, foot, (forward, lateral)], 0 in the air
+    commanded_speed = env.commands[:, :2].norm(dim=-1)
+    direction = env.commands[:, :2] / commanded_speed.unsqueeze(-1).clamp(min=1e-6)
     if along_command:
-        direction = env.commands[:, :2] / env.commands[:, :2].norm(dim=-1, keepdim=True).clamp(min=1e-6)
         length = (step * direction.unsqueeze(1)).sum(-1).clamp(min=0.0)
     elif along_heading:
         length = step[..., 0].clamp(min=0.0)
     else:
         length = step.norm(dim=-1)
-    commanded_speed = env.commands[:, :2].norm(dim=-1)
     reward = length.sum(-1) * (commanded_speed >= min_command)
     if at_command_speed:
-        direction = env.commands[:, :2] / commanded_speed.unsqueeze(-1).clamp(min=1e-6)
         speed = (env.robot.base_lin_vel[:, :2] * direction).sum(-1)
         reward = reward * (commanded_speed / speed.clamp(min=1e-6)).clamp(max=1.0)
     if speed_std is not None:
         error = ((env.commands[:, :2] - env.robot.base_lin_vel[:, :2]) ** 2).sum(-1)
         reward = reward * torch.exp(-error / speed_std**2)
     if path_std is not None:
-        reward = reward * torch.exp(-(env.commanded_path.error(env.robot.base_pos[:, :2]) ** 2).sum(-1) / path_std**2)
+        reward = reward * position_hold(env, path_std)
     return reward - charged_fall(env, fall_cost)
 
 
