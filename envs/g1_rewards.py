@@ -187,8 +187,8 @@ def stride(env, along_heading: bool = True, min_command: float = 0.1, speed_std:
 
     ``path_std`` (m; None: off) multiplies the pay by ``position_hold`` with path_std as its std, so that a step is
     paid only as far as the base stays where its commands take it: a few cm/s too fast barely lower the speed gate,
-    but they add up in the distance from the path. Measured, it does not hold the stride end to its command either (docs/design.md,
-    "Action noise"), so the walking config leaves it off.
+    but they add up in the distance from the path. Measured, it does not hold the stride end to its command either
+    (docs/design.md, "Action noise"), so the walking config leaves it off.
 
     ``fall_cost``: as r_disturb's. A fall ends the episode and with it the stride pay, which at the end that weights
     stride alone is the only price of falling. Not in the paper's equation: docs/design.md, "Fall costs"."""

@@ -116,20 +116,20 @@ def test_objective_noise_scales_scale_the_training_noise_by_lambda():
     """Sampled actions around the mean have std = learned std * (lambda . scales); log-probabilities follow scipy's
     normal density with that std, and the deterministic output is untouched."""
     n = 20000
+    torch.manual_seed(3)
     obs = make_obs(n=n)
     lam = torch.rand(n, 1)
     obs["preference"] = torch.cat([lam, 1 - lam], dim=-1)
     ours = {"class_name": "pchc_rsl.modules.distribution:GaussianDistribution", "init_std": 0.8}
     actor = PCIActor(obs, GROUPS, "actor", 3, hidden_dims=[16], distribution_cfg=ours,
                      objective_noise_scales=[0.5, 2.0])
-    torch.manual_seed(3)
     with torch.no_grad():
         actions = actor(obs, stochastic_output=True)
         mean = actor(obs)
     expected_std = 0.8 * (0.5 * lam + 2.0 * (1 - lam))
     z = (actions - mean) / expected_std
     for half in (lam[:, 0] < 0.5, lam[:, 0] >= 0.5):  # each half alone: unscaled noise gives 0.63 and 1.26 there
-        assert abs(z[half].std().item() - 1.0) < 0.03 and abs(z[half].mean().item()) < 0.03
+        assert abs(z[half].std().item() - 1.0) < 0.02 and abs(z[half].mean().item()) < 0.02
     logp = scipy.stats.norm.logpdf(actions.numpy(), mean.numpy(), expected_std.numpy()).sum(-1)
     np.testing.assert_allclose(actor.get_output_log_prob(actions).detach().numpy(), logp, rtol=1e-4, atol=1e-3)
     plain = PCIActor(obs, GROUPS, "actor", 3, hidden_dims=[16], distribution_cfg=ours)
