@@ -151,7 +151,7 @@ def alive(env) -> torch.Tensor:
 
 def stride(env, along_heading: bool = True, min_command: float = 0.1, speed_std: float | None = None,
            along_command: bool = False, fall_cost: float = 0.0, at_command_speed: bool = False,
-           path_std: float | None = None) -> torch.Tensor:
+           path_std: float | None = None, average_speed_std: float | None = None) -> torch.Tensor:
     """The paper's r_stride = I_contact ||p_current - p_last_contact||, read per step: every step a foot is in
     contact (I_contact, a state) it pays the length of the step that put it there, from the point where it last
     touched the ground before this stance (p_last_contact) to where it stands now (p_current).
@@ -190,6 +190,12 @@ def stride(env, along_heading: bool = True, min_command: float = 0.1, speed_std:
     but they add up in the distance from the path. Measured, it does not hold the stride end to its command either
     (docs/design.md, "Action noise"), so the walking config leaves it off.
 
+    ``average_speed_std`` (m/s; None: off) gates the step on the averaged velocity (``env.velocity_average``,
+    as ``track_average_lin_vel_xy`` reads it): exp(-||v_cmd_xy - v_avg_xy||^2 / average_speed_std^2). The base sways
+    sideways with every step (the released walker's sideways velocity has a std of 0.05-0.08 m/s, most at the stride
+    end; forward 0.02-0.04; `tools/velocity_sway.py`), so a narrow gate on the instantaneous velocity charges the
+    gait's sway as much as a bias of the mean speed; on the average (std 0.004-0.017) it charges the bias.
+
     ``fall_cost``: as r_disturb's. A fall ends the episode and with it the stride pay, which at the end that weights
     stride alone is the only price of falling. Not in the paper's equation: docs/design.md, "Fall costs"."""
     step = env.feet.stance_step  # [N, foot, (forward, lateral)], 0 in the air
@@ -208,6 +214,9 @@ def stride(env, along_heading: bool = True, min_command: float = 0.1, speed_std:
     if speed_std is not None:
         error = ((env.commands[:, :2] - env.robot.base_lin_vel[:, :2]) ** 2).sum(-1)
         reward = reward * torch.exp(-error / speed_std**2)
+    if average_speed_std is not None:
+        error = ((env.commands[:, :2] - env.velocity_average[:, :2]) ** 2).sum(-1)
+        reward = reward * torch.exp(-error / average_speed_std**2)
     if path_std is not None:
         reward = reward * position_hold(env, path_std)
     return reward - charged_fall(env, fall_cost)

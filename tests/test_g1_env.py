@@ -180,6 +180,21 @@ def test_stride_reward_at_command_speed_pays_a_faster_walk_as_the_commanded_one(
     torch.testing.assert_close(gated[1], torch.tensor(0.15 * math.exp(-4.0)))
 
 
+def test_stride_reward_gated_by_average_speed_reads_the_averaged_velocity_not_the_instantaneous_one():
+    """average_speed_std 0.1: a 0.3 m step pays 0.3 when the averaged velocity is the commanded 0.5 m/s, whatever the
+    instantaneous velocity (0.8 m/s here); averaged 0.6 m/s, 0.3 e^-1; averaged 0.5 m/s ahead and 0.2 m/s aside,
+    0.3 e^-4."""
+    from pchc_rsl.envs import g1_rewards
+
+    env = make_walk_env(num_envs=3)
+    env.feet.stance_step[:] = torch.tensor([[0.3, 0.0], [0.0, 0.0]])
+    env.commands[:] = torch.tensor([0.5, 0.0, 0.0])
+    env.robot.base_lin_vel = torch.tensor([[0.8, 0.0, 0.0], [0.5, 0.0, 0.0], [0.5, 0.0, 0.0]])
+    env.velocity_average = torch.tensor([[0.5, 0.0, 0.0], [0.6, 0.0, 0.0], [0.5, 0.2, 0.0]])
+    expected = torch.tensor([0.3, 0.3 * math.exp(-1.0), 0.3 * math.exp(-4.0)])
+    torch.testing.assert_close(g1_rewards.stride(env, average_speed_std=0.1), expected)
+
+
 def test_stride_reward_gated_by_path_pays_less_the_further_the_base_is_from_its_commanded_path():
     """path_std 0.25: a 0.3 m step on the path pays 0.3; 0.25 m ahead of it, 0.3 e^-1; 0.5 m aside, 0.3 e^-4."""
     from pchc_rsl.envs import g1_rewards
