@@ -105,6 +105,12 @@ class G1EnvConfig:
     """Also give the critic the time left in the push window and until the next push. r_disturb's value depends on
     both; without them its critic cannot predict it, and its advantage (normalised to unit scale) is mostly noise.
     Changes the critic's input size: checkpoints trained without it do not load with it."""
+    critic_command_state: bool = False
+    """Also give the critic the state that the task's holds read: the base's offset from the commanded path (in the
+    base's heading frame), the heading error and the averaged velocity. position_hold, heading_hold and the average
+    kernels pay by them; without them the critic cannot tell a walker that has drifted off its path from one on it,
+    and the cost of a drift (seconds of lower pay) reaches the advantage only through the lambda-return's short tail.
+    Changes the critic's input size: ``pchc-train --init-from`` widens a critic trained without it."""
     preference_concentration: float = 1.0
     preference_resample_prob: float = 0.0
     """Per-step probability of re-sampling lambda mid-episode."""

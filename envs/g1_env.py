@@ -19,7 +19,7 @@ from tensordict import TensorDict
 
 from rsl_rl.env import VecEnv
 
-from pchc_rsl.envs.commanded_path import CommandedPath
+from pchc_rsl.envs.commanded_path import CommandedPath, rotate
 from pchc_rsl.envs.g1_config import G1EnvConfig, PushConfig, RandomizationConfig, RewardTerm
 from pchc_rsl.envs.g1_contacts import FootContacts, median_from_histogram
 from pchc_rsl.envs.g1_metrics import EpisodeSums, larger_over_smaller, ratio
@@ -223,8 +223,8 @@ class G1Env(VecEnv):
     # ---------------------------------------------------------------- observations
     def privileged_parts(self) -> list[tuple[str, torch.Tensor]]:
         """The critic's extra state by quantity: base velocity and height, foot contacts, the push and the deviation
-        from it (and with ``critic_push_timing`` the push's timing). Names say how the left-right mirror acts on
-        each (envs/g1_symmetry.py)."""
+        from it (with ``critic_push_timing`` the push's timing, with ``critic_command_state`` the state the task's
+        holds read). Names say how the left-right mirror acts on each (envs/g1_symmetry.py)."""
         active = self.pushes.active.float().unsqueeze(-1)
         parts = [
             ("base_lin_vel", self.robot.base_lin_vel),
@@ -236,6 +236,10 @@ class G1Env(VecEnv):
         ]
         if self.cfg.critic_push_timing:
             parts.append(("push_timing", self.pushes.timing()))
+        if self.cfg.critic_command_state:
+            offset = rotate(self.commanded_path.error(self.robot.base_pos[:, :2]), -self.robot.yaw)
+            parts += [("path_error_xy", offset), ("heading_error", self.heading_error.unsqueeze(-1)),
+                      ("velocity_average", self.velocity_average)]
         return parts
 
     def privileged_state(self) -> torch.Tensor:

@@ -36,6 +36,9 @@ QUANTITY_MIRROR = {
     "push_direction_xy": [1.0, -1.0],
     "push_deviation_xy": [1.0, -1.0],
     "push_timing": None,
+    "path_error_xy": [1.0, -1.0],  # base heading frame
+    "heading_error": [-1.0],
+    "velocity_average": _COMMAND,  # (forward, sideways, yaw rate) as the command
 }
 """How the mirror acts on each quantity: None (unchanged), a sign per component, "joints" or "feet" (swap)."""
 

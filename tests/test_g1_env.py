@@ -393,6 +393,25 @@ def test_critic_push_timing_adds_the_window_left_and_the_time_to_the_next_push()
     torch.testing.assert_close(env.get_observations()["critic"][0, -2:], torch.tensor(expected))
 
 
+def test_critic_command_state_adds_the_path_offset_in_the_heading_frame_the_heading_error_and_the_average():
+    """A robot facing +y (yaw pi/2) standing 0.3 m along x and 0.1 m along y from its path's point: in its heading
+    frame the offset is 0.1 m ahead and 0.3 m to its right, (0.1, -0.3)."""
+    import math
+
+    plain = make_walk_env(num_envs=1)
+    env = make_walk_env(num_envs=1, critic_command_state=True)
+    width = env.get_observations()["critic"].shape[-1]
+    assert width == plain.get_observations()["critic"].shape[-1] + 6
+    robot = env.robot
+    robot.base_pos = robot.base_pos.clone()
+    robot.yaw = torch.tensor([math.pi / 2])
+    env.commanded_path.position = robot.base_pos[:, :2] - torch.tensor([[0.3, 0.1]])
+    env.heading_error[:] = 0.05
+    env.velocity_average[:] = torch.tensor([0.4, -0.1, 0.2])
+    expected = torch.tensor([0.1, -0.3, 0.05, 0.4, -0.1, 0.2])
+    torch.testing.assert_close(env.get_observations()["critic"][0, -6:], expected, atol=1e-6, rtol=0)
+
+
 def test_vertical_r_disturb_adds_the_height_change_since_the_push():
     """A fall (the pelvis 0.5 m lower) with 0.3 m horizontal drift: -sqrt(0.3^2 + 0.5^2) instead of -0.3."""
     from pchc_rsl.envs import g1_rewards

@@ -233,7 +233,7 @@ def train(cfg, config: dict, log_dir: str, args) -> None:
                                  "a resumed run keeps the checkpoint's networks: drop the override, or start a new "
                                  "run with --task.") from None
         elif args.init_from:
-            runner.load(args.init_from, load_cfg=INIT_FROM_PARTS)
+            runner.load(args.init_from, load_cfg=INIT_FROM_PARTS, widen_critic=True)
             _continue_env_progress(runner, args.init_from)
         first = runner.current_learning_iteration
         last = first + cfg.runner.max_iterations - 1

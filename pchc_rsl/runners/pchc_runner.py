@@ -17,6 +17,7 @@ from rsl_rl.runners import OnPolicyRunner
 from pchc_rsl.export.onnx_export import export_onnx
 from pchc_rsl.runners.checkpoint import load_checkpoint
 from pchc_rsl.runners.iteration_log import IterationLogger
+from pchc_rsl.training.widen_critic import widen_critic_inputs
 from pchc_rsl.utils.distributed import init_process_group, shutdown_process_group, world
 from pchc_rsl.utils.files import atomic_write
 from pchc_rsl.utils.finite import RolloutNaNCheck, first_non_finite_tensor, first_non_finite_value
@@ -286,15 +287,20 @@ class PCHCRunner(OnPolicyRunner):
 
     def load(
         self, path: str, load_cfg: dict | None = None, strict: bool = True, map_location: str | None = None,
-        resume: bool = False,
+        resume: bool = False, widen_critic: bool = False,
     ) -> dict | None:
         """Load a checkpoint written by ``save``; refuse one trained for another task. Training continues with the
         iteration after the checkpoint's (model_9.pt + 10 iterations ends at model_19.pt); ``resume=True`` also
-        continues its random streams and env state, so 10 + 10 iterations equal 20 in one go."""
+        continues its random streams and env state, so 10 + 10 iterations equal 20 in one go. ``widen_critic``: a
+        critic that observes more than the checkpoint's starts from its weights (training/widen_critic.py)."""
         loaded = load_checkpoint(path, map_location or self.device)
         theirs, ours = loaded.get("config", {}).get("task"), self.config.get("task")
         if theirs is not None and ours is not None and theirs != ours:
             raise ValueError(f"{path} was trained on task '{theirs}', but this runner is set up for '{ours}'.")
+        if widen_critic and (load_cfg is None or load_cfg.get("critic", True)):
+            added = widen_critic_inputs(loaded["critic_state_dict"], self.alg._raw_critic)
+            if added:
+                print(f"The critic observes {added} inputs more than {path}'s: they start with zero weights.")
         try:
             load_iteration = self.alg.load(loaded, load_cfg, strict)
         except RuntimeError as error:
