@@ -151,7 +151,8 @@ def alive(env) -> torch.Tensor:
 
 def stride(env, along_heading: bool = True, min_command: float = 0.1, speed_std: float | None = None,
            along_command: bool = False, fall_cost: float = 0.0, at_command_speed: bool = False,
-           path_std: float | None = None, average_speed_std: float | None = None) -> torch.Tensor:
+           path_std: float | None = None, average_speed_std: float | None = None,
+           commanded_length: bool = False) -> torch.Tensor:
     """The paper's r_stride = I_contact ||p_current - p_last_contact||, read per step: every step a foot is in
     contact (I_contact, a state) it pays the length of the step that put it there, from the point where it last
     touched the ground before this stance (p_last_contact) to where it stands now (p_current).
@@ -198,6 +199,12 @@ def stride(env, along_heading: bool = True, min_command: float = 0.1, speed_std:
     does not hold the stride end to its command either (docs/design.md, "Action noise"), so the walking config leaves
     it off.
 
+    ``commanded_length`` pays every step as the step that its cadence makes at the commanded speed, faster or slower:
+    length x |v_cmd| / v, v the averaged velocity (``env.velocity_average``) along the commanded direction, at least
+    half the command. ``at_command_speed`` scales only the faster steps, so a walker unsure of its speed loses pay
+    when slow and keeps it when fast; scaled both ways, the pay depends on the cadence alone and a bias either way
+    costs the same.
+
     ``fall_cost``: as r_disturb's. A fall ends the episode and with it the stride pay, which at the end that weights
     stride alone is the only price of falling. Not in the paper's equation: docs/design.md, "Fall costs"."""
     step = env.feet.stance_step  # [N, foot, (forward, lateral)], 0 in the air
@@ -213,6 +220,9 @@ def stride(env, along_heading: bool = True, min_command: float = 0.1, speed_std:
     if at_command_speed:
         speed = (env.robot.base_lin_vel[:, :2] * direction).sum(-1)
         reward = reward * (commanded_speed / speed.clamp(min=1e-6)).clamp(max=1.0)
+    if commanded_length:
+        speed = (env.velocity_average[:, :2] * direction).sum(-1)
+        reward = reward * commanded_speed / speed.clamp(min=1e-6).maximum(commanded_speed / 2)
     if speed_std is not None:
         reward = reward * track_lin_vel_xy(env, speed_std)
     if average_speed_std is not None:

@@ -195,6 +195,22 @@ def test_stride_reward_gated_by_average_speed_reads_the_averaged_velocity_not_th
     torch.testing.assert_close(g1_rewards.stride(env, average_speed_std=0.1), expected)
 
 
+def test_stride_reward_at_the_commanded_length_scales_slower_and_faster_steps_alike():
+    """Told 0.5 m/s, a 0.3 m step pays 0.3 x 0.5 / v for the averaged velocity v along the command: 0.3 at 0.5 m/s,
+    0.25 at 0.6, 0.375 at 0.4, and 0.6 (at most twice) when standing still; told 0.3 m/s aside, a 0.2 m step aside at
+    0.2 m/s pays 0.3."""
+    from pchc_rsl.envs import g1_rewards
+
+    env = make_walk_env(num_envs=5)
+    env.feet.stance_step[:] = torch.tensor([[[0.3, 0.0], [0.0, 0.0]]] * 4 + [[[0.0, 0.2], [0.0, 0.0]]])
+    env.commands[:] = torch.tensor([[0.5, 0, 0]] * 4 + [[0.0, 0.3, 0]])
+    env.robot.base_lin_vel = torch.full((5, 3), 0.5)  # the instantaneous velocity is not read
+    env.velocity_average = torch.tensor([[0.5, 0.0, 0.0], [0.6, 0.1, 0.0], [0.4, 0.0, 0.0], [0.0, 0.0, 0.0],
+                                         [0.0, 0.2, 0.0]])
+    reward = g1_rewards.stride(env, along_command=True, commanded_length=True)
+    torch.testing.assert_close(reward, torch.tensor([0.3, 0.25, 0.375, 0.6, 0.3]))
+
+
 def test_stride_reward_gated_by_path_pays_less_the_further_the_base_is_from_its_commanded_path():
     """path_std 0.25: a 0.3 m step on the path pays 0.3; 0.25 m ahead of it, 0.3 e^-1; 0.5 m aside, 0.3 e^-4."""
     from pchc_rsl.envs import g1_rewards
