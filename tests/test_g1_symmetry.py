@@ -77,25 +77,12 @@ def test_mirrored_start_stepped_with_mirrored_actions_stays_the_mirror():
     gravity in the base frame 0.03, base height 3 mm (measured on the menagerie G1: 0.011 rad at most; contacts make
     velocities drift apart faster, so they are not compared). A wrong sign on any roll or yaw joint, or an unswapped
     pair, is off by tenths of a radian within a few steps."""
-    from pchc_rsl.envs.g1_symmetry import mirror_of
-    from pchc_rsl.robots.g1.symmetry import mirror_free_state
-
     env = make_walk_env(num_envs=2, randomization=_off(), observation_noise=0.0, push=_no_push(),
                         action_delay_s=(0.0, 0.0), command_resample_s=None)
     generator = torch.Generator().manual_seed(0)
     for _ in range(10):
         env.step(0.3 * torch.randn(2, env.num_actions, generator=generator))
-    qpos, qvel = env.physics.qpos[0].numpy().copy(), env.physics.qvel[0].numpy().copy()
-    mirrored_qpos, mirrored_qvel = mirror_free_state(env.model, qpos, qvel)
-    env.physics.set_qpos_qvel(torch.tensor([0, 1]), torch.tensor(np.stack([qpos, mirrored_qpos])),
-                              torch.tensor(np.stack([qvel, mirrored_qvel])))
-    env.robot.read()
-    mirror = mirror_of(env)
-    env.commands[0] = torch.tensor([0.5, 0.2, 0.3])
-    env.commands[1] = torch.tensor([0.5, -0.2, -0.3])
-    for buffer in ("actions", "last_actions", "joint_targets"):
-        getattr(env, buffer)[1] = mirror.action(getattr(env, buffer)[0])
-    env.observations.reset(env, torch.tensor([0, 1]))
+    mirror = _make_the_second_robot_the_mirror_of_the_first(env)
     joints = env.num_actions
     for _ in range(50):
         action = 0.5 * torch.randn(1, joints, generator=generator)
@@ -125,22 +112,11 @@ def test_the_holds_state_of_a_mirrored_walker_is_the_mirror():
     """Two robots, one the mirror image of the other, told mirrored commands and driven by mirrored actions for 1 s
     from paths restarted where they stand: the critic's offset from the path, heading error and averaged velocity
     of the second are the mirror of the first's (0.01 m, 0.02 rad, 0.05 m/s; the unmirrored values move by tenths)."""
-    from pchc_rsl.envs.g1_symmetry import mirror_of
-    from pchc_rsl.robots.g1.symmetry import mirror_free_state
-
     env = make_walk_env(num_envs=2, randomization=_off(), observation_noise=0.0, push=_no_push(),
                         action_delay_s=(0.0, 0.0), command_resample_s=None, critic_command_state=True)
-    qpos, qvel = env.physics.qpos[0].numpy().copy(), env.physics.qvel[0].numpy().copy()
-    mirrored_qpos, mirrored_qvel = mirror_free_state(env.model, qpos, qvel)
-    env.physics.set_qpos_qvel(torch.tensor([0, 1]), torch.tensor(np.stack([qpos, mirrored_qpos])),
-                              torch.tensor(np.stack([qvel, mirrored_qvel])))
-    env.robot.read()
-    mirror = mirror_of(env)
-    env.commands[0] = torch.tensor([0.5, 0.2, 0.3])
-    env.commands[1] = torch.tensor([0.5, -0.2, -0.3])
+    mirror = _make_the_second_robot_the_mirror_of_the_first(env)
     env.commanded_path.restart(torch.ones(2, dtype=torch.bool), env.robot.base_pos[:, :2], env.robot.yaw)
     env.heading_error[:], env.velocity_average[:] = 0.0, 0.0
-    env.observations.reset(env, torch.tensor([0, 1]))
     generator = torch.Generator().manual_seed(1)
     for _ in range(50):
         action = 0.3 * torch.randn(1, env.num_actions, generator=generator)
@@ -151,3 +127,22 @@ def test_the_holds_state_of_a_mirrored_walker_is_the_mirror():
     torch.testing.assert_close(actual[:2], expected[:2], rtol=0, atol=0.01)
     torch.testing.assert_close(actual[2:3], expected[2:3], rtol=0, atol=0.02)
     torch.testing.assert_close(actual[3:], expected[3:], rtol=0, atol=0.05)
+
+
+def _make_the_second_robot_the_mirror_of_the_first(env):
+    """Env 1 takes the mirror image of env 0's state, command and action buffers; returns the env's mirror."""
+    from pchc_rsl.envs.g1_symmetry import mirror_of
+    from pchc_rsl.robots.g1.symmetry import mirror_free_state
+
+    qpos, qvel = env.physics.qpos[0].numpy().copy(), env.physics.qvel[0].numpy().copy()
+    mirrored_qpos, mirrored_qvel = mirror_free_state(env.model, qpos, qvel)
+    env.physics.set_qpos_qvel(torch.tensor([0, 1]), torch.tensor(np.stack([qpos, mirrored_qpos])),
+                              torch.tensor(np.stack([qvel, mirrored_qvel])))
+    env.robot.read()
+    mirror = mirror_of(env)
+    env.commands[0] = torch.tensor([0.5, 0.2, 0.3])
+    env.commands[1] = torch.tensor([0.5, -0.2, -0.3])
+    for buffer in ("actions", "last_actions", "joint_targets"):
+        getattr(env, buffer)[1] = mirror.action(getattr(env, buffer)[0])
+    env.observations.reset(env, torch.tensor([0, 1]))
+    return mirror
