@@ -48,13 +48,17 @@ def test_a_widened_critic_values_every_state_as_the_checkpoints_critic_did(prefe
     assert not torch.allclose(new(wide), old(narrow))
 
 
-def test_matching_widths_are_left_alone_and_a_narrower_critic_is_refused():
+@pytest.mark.parametrize("other", ["same", "narrower", "other units"])
+def test_a_critic_without_added_inputs_is_left_alone_for_loading_to_judge(other):
     obs = make_obs(WIDTH)
     critic = make_critic(obs)
     saved = critic.state_dict()
     before = {k: v.clone() for k, v in saved.items()}
-    assert widen_critic_inputs(saved, critic) == 0
+    target = {"same": critic, "narrower": make_critic(make_obs(WIDTH - 2)),
+              "other units": PreferenceMLPModel(make_obs(WIDTH + ADDED), {"critic": ["critic", "preference"]},
+                                                "critic", 3, hidden_dims=[8], obs_normalization=True)}[other]
+    assert widen_critic_inputs(saved, target) == 0
     assert all(torch.equal(saved[k], before[k]) for k in before)
-    narrower = make_critic(make_obs(WIDTH - 2))
-    with pytest.raises(ValueError, match="only added inputs"):
-        widen_critic_inputs(critic.state_dict(), narrower)
+    if other != "same":
+        with pytest.raises(RuntimeError, match="size mismatch"):
+            target.load_state_dict(saved)

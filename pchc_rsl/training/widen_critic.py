@@ -17,19 +17,15 @@ NORMALISER = "obs_normalizer."
 
 def widen_critic_inputs(saved: dict[str, torch.Tensor], critic: nn.Module) -> int:
     """Widen ``saved`` (a critic's state dict, changed in place) to ``critic``'s observation width; returns how many
-    inputs were added (0: the widths match). The first layer reads [normalised observation, extra latent] (the
+    inputs were added (0: nothing was added, or the critics differ otherwise). The first layer reads [normalised observation, extra latent] (the
     preference, in a preference critic): the new columns go between the two."""
     ours = critic.state_dict()
     if FIRST_LAYER not in saved or FIRST_LAYER not in ours:
         raise ValueError(f"widen_critic_inputs needs an MLP critic ('{FIRST_LAYER}' in its state dict).")
     old_width, new_width = saved[FIRST_LAYER].shape[1], ours[FIRST_LAYER].shape[1]
     added = new_width - old_width
-    if added == 0:
-        return 0
-    if added < 0 or saved[FIRST_LAYER].shape[0] != ours[FIRST_LAYER].shape[0]:
-        raise ValueError(f"the checkpoint's critic reads {old_width} inputs with {saved[FIRST_LAYER].shape[0]} "
-                         f"units, this one {new_width} with {ours[FIRST_LAYER].shape[0]}: only added inputs can be "
-                         "widened into.")
+    if added <= 0 or saved[FIRST_LAYER].shape[0] != ours[FIRST_LAYER].shape[0]:
+        return 0  # nothing to widen; loading reports a critic that differs otherwise
     extra_latent = new_width - critic.obs_dim  # what the latent holds after the observation (the preference)
     at = old_width - extra_latent
     weight = saved[FIRST_LAYER]
