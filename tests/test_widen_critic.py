@@ -3,7 +3,7 @@ import torch
 from tensordict import TensorDict
 
 from pchc_rsl.modules import PreferenceMLPModel
-from pchc_rsl.training.widen_critic import widen_critic_inputs
+from pchc_rsl.runners.widen_critic import widen_critic_inputs
 
 N, WIDTH, ADDED = 32, 7, 3
 

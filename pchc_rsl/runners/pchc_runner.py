@@ -17,7 +17,7 @@ from rsl_rl.runners import OnPolicyRunner
 from pchc_rsl.export.onnx_export import export_onnx
 from pchc_rsl.runners.checkpoint import load_checkpoint
 from pchc_rsl.runners.iteration_log import IterationLogger
-from pchc_rsl.training.widen_critic import widen_critic_inputs
+from pchc_rsl.runners.widen_critic import widen_critic_inputs
 from pchc_rsl.utils.distributed import init_process_group, shutdown_process_group, world
 from pchc_rsl.utils.files import atomic_write
 from pchc_rsl.utils.finite import RolloutNaNCheck, first_non_finite_tensor, first_non_finite_value
@@ -292,7 +292,7 @@ class PCHCRunner(OnPolicyRunner):
         """Load a checkpoint written by ``save``; refuse one trained for another task. Training continues with the
         iteration after the checkpoint's (model_9.pt + 10 iterations ends at model_19.pt); ``resume=True`` also
         continues its random streams and env state, so 10 + 10 iterations equal 20 in one go. ``widen_critic``: a
-        critic that observes more than the checkpoint's starts from its weights (training/widen_critic.py)."""
+        critic that observes more than the checkpoint's starts from its weights (runners/widen_critic.py)."""
         loaded = load_checkpoint(path, map_location or self.device)
         theirs, ours = loaded.get("config", {}).get("task"), self.config.get("task")
         if theirs is not None and ours is not None and theirs != ours:

@@ -21,7 +21,7 @@ def widen_critic_inputs(saved: dict[str, torch.Tensor], critic: nn.Module) -> in
     preference, in a preference critic): the new columns go between the two."""
     ours = critic.state_dict()
     if FIRST_LAYER not in saved or FIRST_LAYER not in ours:
-        raise ValueError(f"widen_critic_inputs needs an MLP critic ('{FIRST_LAYER}' in its state dict).")
+        return 0  # not an MLP critic: loaded as it is
     old_width, new_width = saved[FIRST_LAYER].shape[1], ours[FIRST_LAYER].shape[1]
     added = new_width - old_width
     if added <= 0 or saved[FIRST_LAYER].shape[0] != ours[FIRST_LAYER].shape[0]:
