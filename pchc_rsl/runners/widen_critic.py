@@ -17,8 +17,8 @@ NORMALISER = "obs_normalizer."
 
 def widen_critic_inputs(saved: dict[str, torch.Tensor], critic: nn.Module) -> int:
     """Widen ``saved`` (a critic's state dict, changed in place) to ``critic``'s observation width; returns how many
-    inputs were added (0: nothing was added, or the critics differ otherwise). The first layer reads [normalised observation, extra latent] (the
-    preference, in a preference critic): the new columns go between the two."""
+    inputs were added (0: nothing was added, or the critics differ otherwise). The first layer reads [normalised
+    observation, extra latent] (the preference, in a preference critic): the new columns go between the two."""
     ours = critic.state_dict()
     if FIRST_LAYER not in saved or FIRST_LAYER not in ours:
         return 0  # not an MLP critic: loaded as it is
