@@ -173,15 +173,22 @@ class G1Env(VecEnv):
         self.observations.reset(self, ids)
 
     def sample_commands(self, n: int) -> torch.Tensor:
-        """[n, 3] (v_x, v_y, w_z) uniform in the command ranges, zero (stand) with ``zero_command_probability``."""
+        """[n, 3] (v_x, v_y, w_z) uniform in the command ranges, zero (stand) with ``zero_command_probability``, one
+        axis alone with ``single_axis_probability``."""
         r = self.cfg.command_ranges
-        commands = torch.stack(
+        drawn = torch.stack(
             [self._uniform(n, *r["lin_vel_x"]), self._uniform(n, *r["lin_vel_y"]), self._uniform(n, *r["ang_vel_z"])],
             1,
         )
+        commands = drawn.clone()
         if self.cfg.zero_yaw_rate_probability > 0:
             straight = torch.rand(n, generator=self.generator, device=self.device) < self.cfg.zero_yaw_rate_probability
             commands[:, 2] = torch.where(straight, 0.0, commands[:, 2])
+        if self.cfg.single_axis_probability > 0:
+            single = torch.rand(n, generator=self.generator, device=self.device) < self.cfg.single_axis_probability
+            axis = torch.randint(0, 3, (n,), generator=self.generator, device=self.device)
+            alone = torch.nn.functional.one_hot(axis, 3).bool()
+            commands = torch.where(single.unsqueeze(-1), torch.where(alone, drawn, 0.0), commands)
         if self.cfg.zero_command_probability > 0:
             standing = torch.rand(n, generator=self.generator, device=self.device) < self.cfg.zero_command_probability
             commands = torch.where(standing.unsqueeze(-1), 0.0, commands)

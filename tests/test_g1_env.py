@@ -686,6 +686,28 @@ def test_commands_are_resampled_within_an_episode_with_standing_and_straight_sha
         assert r[key][0] <= drawn[:, column].min() and drawn[:, column].max() <= r[key][1]
 
 
+def test_single_axis_commands_move_one_axis_alone_evenly_over_the_axes():
+    """single_axis_probability=0.3 beside a 20% standing share: of 20,000 draws about 80% x 30% = 24% have exactly one
+    non-zero axis, a third of them each of v_x, v_y, w_z, spread over its range. Without the option no draw moves one
+    axis alone: a uniform draw is never exactly 0, and a zeroed yaw rate leaves v_x and v_y."""
+    env = make_walk_env(num_envs=1, zero_command_probability=0.2, zero_yaw_rate_probability=0.25,
+                        single_axis_probability=0.3)
+    drawn = env.sample_commands(20_000)
+    moving = drawn != 0
+    single = moving.sum(-1) == 1
+    assert single.float().mean().item() == pytest.approx(0.8 * 0.3, abs=0.015)
+    for column, key in enumerate(("lin_vel_x", "lin_vel_y", "ang_vel_z")):
+        alone = drawn[single & moving[:, column], column]
+        assert alone.numel() / single.sum().item() == pytest.approx(1 / 3, abs=0.03)
+        low, high = env.cfg.command_ranges[key]
+        assert low <= alone.min() and alone.max() <= high
+        assert alone.std() > (high - low) / 4  # uniform over the range (std (high - low) / sqrt(12)), not a constant
+    standing = (~moving).all(-1).float().mean().item()
+    assert standing == pytest.approx(0.2, abs=0.015)
+    env.cfg.single_axis_probability = 0.0
+    assert (env.sample_commands(20_000) != 0).sum(-1).eq(1).sum() == 0
+
+
 def test_single_stance_pays_walking_not_hopping_shuffling_or_standing():
     from pchc_rsl.envs import g1_rewards
 
