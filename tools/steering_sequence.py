@@ -2,6 +2,7 @@
 ends with where the commands integrate to, per preference, pushes off.
 
     python tools/steering_sequence.py policies/g1_walk.pt --num-envs 16
+    python tools/steering_sequence.py policies/g1_walk.pt --sequence FILE --seconds 9 --phases  # pchc-deploy's format
 
 Why: tracking errors averaged over an episode can hide a walker that lags every change of command or drifts while
 it stands; the end point of a whole sequence is what an operator steering it sees. The commanded pose is
@@ -16,6 +17,7 @@ import math
 
 import torch
 
+from pchc_rsl.deploy.command_sequence import read_command_sequence
 from pchc_rsl.deploy.end_point import in_start_frame, integrate_twist
 from pchc_rsl.evaluation import evenly_spaced_preferences
 
@@ -39,6 +41,17 @@ def phase_offset(start_xy, start_yaw: float, end_xy, phase) -> tuple[float, floa
     commanded = in_start_frame(start, integrate_twist([(seconds, command)], start))
     reached = in_start_frame(start, (float(end_xy[0]), float(end_xy[1]), start_yaw))
     return reached[0] - commanded[0], reached[1] - commanded[1]
+
+
+def sequence_from_file(path: str, ranges: dict, seconds: float | None = None) -> list:
+    """A sequence in ``pchc-deploy --command-sequence``'s format (checked against ``ranges`` as the deploy checks it)
+    as (name, seconds, command) phases, one per row; the last row held until ``seconds`` (default: 3 s)."""
+    rows = read_command_sequence(path, ranges).rows
+    end = rows[-1].start + 3.0 if seconds is None else seconds
+    if end <= rows[-1].start:
+        raise ValueError(f"{path}: the last row starts at {rows[-1].start:g} s, after the sequence ends ({end:g} s)")
+    ends = [row.start for row in rows[1:]] + [end]
+    return [(f"from {row.start:g} s", stop - row.start, row.command) for row, stop in zip(rows, ends)]
 
 
 def run_sequence(env, policy, preference, sequence=SEQUENCE) -> dict:
@@ -81,20 +94,30 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--phases", action="store_true",
                         help="also each phase's end against its own command from the phase's start pose")
+    parser.add_argument("--sequence", help="another sequence, a file in pchc-deploy --command-sequence's format "
+                        "(examples/steering_sequence.txt is the built-in one); each row is a phase")
+    parser.add_argument("--seconds", type=float, help="with --sequence: when it ends (default: 3 s after the last "
+                        "row starts)")
     args = parser.parse_args()
 
     from pchc_rsl.evaluation.checkpoint import load_policy
+    from pchc_rsl.runners import load_checkpoint
+    from pchc_rsl.training.build import restore_config
 
-    seconds = sum(s for _, s, _ in SEQUENCE)
+    sequence = SEQUENCE
+    if args.sequence:
+        ranges = restore_config(load_checkpoint(args.checkpoint)["config"]).env.command_ranges
+        sequence = sequence_from_file(args.sequence, ranges, args.seconds)
+    seconds = sum(s for _, s, _ in sequence)
     overrides = ["env.push.enabled=false", *args.overrides]
     _, env, policy = load_policy(args.checkpoint, args.num_envs, args.seed, seconds + 1.0, None, overrides)
     print(f"{args.checkpoint}, {args.num_envs} runs per preference, pushes off: "
-          + ", then ".join(f"{name} {s:g} s {c}" for name, s, c in SEQUENCE))
+          + ", then ".join(f"{name} {s:g} s {c}" for name, s, c in sequence))
     print("| Preference | Falls | End point off, median (m) | max (m) | Heading off, median (deg) |")
     print("|---|---|---|---|---|")
     phases = []
     for preference in evenly_spaced_preferences(args.preferences):
-        r = run_sequence(env, policy, preference)
+        r = run_sequence(env, policy, preference, sequence)
         error, heading = torch.tensor(r["end_error"] or [math.nan]), torch.tensor(r["heading_error"] or [math.nan])
         shown = ", ".join(f"{x:.2f}" for x in preference)
         print(f"| ({shown}) | {r['falls']}/{args.num_envs} | {error.median():.2f} | {error.max():.2f} "
@@ -102,8 +125,8 @@ def main() -> None:
         phases.append((shown, r["phase_offsets"]))
     if args.phases:
         print("\nEach phase from its own start pose: median (ahead, left) offset of its end from its command's, m")
-        print("| Preference | " + " | ".join(name for name, _, _ in SEQUENCE) + " |")
-        print("|---" * (len(SEQUENCE) + 1) + "|")
+        print("| Preference | " + " | ".join(name for name, _, _ in sequence) + " |")
+        print("|---" * (len(sequence) + 1) + "|")
         for shown, offsets in phases:
             medians = [torch.tensor(o or [(math.nan, math.nan)]).median(dim=0).values for o in offsets]
             print(f"| ({shown}) | " + " | ".join(f"{ahead:+.2f}, {left:+.2f}" for ahead, left in medians) + " |")
