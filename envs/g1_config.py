@@ -91,8 +91,8 @@ class G1EnvConfig:
     """Share of the other commands whose yaw rate is zero (walking straight)."""
     single_axis_probability: float = 0.0
     """Share of the other commands that move one axis alone, v_x, v_y or w_z with equal chance (a pure side step, turn
-    on the spot or straight walk), as an operator's stick often does. Drawn uniformly, pure side steps and turns on
-    the spot are almost never trained, and a walker told to step sideways after walking ahead creeps forward."""
+    on the spot or straight walk), as an operator's stick often does; drawn uniformly, pure side steps and turns on
+    the spot are almost never trained. What it changes: docs/design.md, "Action noise"."""
     velocity_average_s: float = 0.5
     """Time constant (s) of ``G1Env.velocity_average``, the base's velocity with the gait's sway filtered out."""
     command_resample_s: tuple[float, float] | None = None
