@@ -182,15 +182,15 @@ class G1Env(VecEnv):
         )
         commands = drawn.clone()
         if self.cfg.zero_yaw_rate_probability > 0:
-            straight = torch.rand(n, generator=self.generator, device=self.device) < self.cfg.zero_yaw_rate_probability
+            straight = self._chance(n, self.cfg.zero_yaw_rate_probability)
             commands[:, 2] = torch.where(straight, 0.0, commands[:, 2])
         if self.cfg.single_axis_probability > 0:
-            single = torch.rand(n, generator=self.generator, device=self.device) < self.cfg.single_axis_probability
+            single = self._chance(n, self.cfg.single_axis_probability)
             axis = torch.randint(0, 3, (n,), generator=self.generator, device=self.device)
             alone = torch.nn.functional.one_hot(axis, 3).bool()
             commands = torch.where(single.unsqueeze(-1), torch.where(alone, drawn, 0.0), commands)
         if self.cfg.zero_command_probability > 0:
-            standing = torch.rand(n, generator=self.generator, device=self.device) < self.cfg.zero_command_probability
+            standing = self._chance(n, self.cfg.zero_command_probability)
             commands = torch.where(standing.unsqueeze(-1), 0.0, commands)
         return commands
 
@@ -214,6 +214,10 @@ class G1Env(VecEnv):
 
     def _uniform(self, n: int, low: float, high: float) -> torch.Tensor:
         return low + (high - low) * torch.rand(n, generator=self.generator, device=self.device)
+
+    def _chance(self, n: int, probability: float) -> torch.Tensor:
+        """[n] bools, each True with ``probability``."""
+        return torch.rand(n, generator=self.generator, device=self.device) < probability
 
     def initial_state(self, env_ids: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """Standing at the default pose with joint noise (tasks override for other starts). [n, nq], [n, nv]."""

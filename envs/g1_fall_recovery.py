@@ -78,7 +78,7 @@ class G1FallRecoveryEnv(G1Env):
         """Lying face down (pitch +90 deg: the body's forward axis points at the floor) with random yaw and joints."""
         qpos, qvel = super().initial_state(env_ids)
         n = len(env_ids)
-        supine = torch.rand(n, generator=self.generator, device=self.device) < self.cfg.supine_probability
+        supine = self._chance(n, self.cfg.supine_probability)
         pitch = torch.where(supine, -math.pi / 2, math.pi / 2)
         yaw = 2 * math.pi * torch.rand(n, generator=self.generator, device=self.device)
         # q = q_yaw * q_pitch, (w, x, y, z)
