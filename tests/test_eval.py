@@ -109,21 +109,26 @@ def test_settle_time_of_a_step_change():
     assert math.isnan(settle_time(curve, 20, 0.02))  # under 1 s before the switch
 
 
-def test_every_walking_evaluation_episode_is_commanded_the_evaluation_speed():
-    """Walking trains with 15% standing episodes; the evaluation commands 0.5 m/s in every episode, so that no
-    walking figure mixes in episodes told to stand."""
+def test_every_walking_evaluation_episode_is_commanded_exactly_the_named_command():
+    """Walking trains with standing episodes, straight ones (yaw rate zeroed) and ones moving along one axis alone;
+    the evaluation commands 0.5 m/s in every episode, and a steering condition its turn in every episode, so that no
+    figure mixes in episodes told something else."""
     from pchc_rsl.configs import task_config
     from pchc_rsl.evaluation import evaluation_preset
     from pchc_rsl.training.build import make_env
 
     cfg = task_config("g1-walk-fast")
-    assert cfg.env.zero_command_probability > 0  # what the preset has to undo
+    cfg.env.single_axis_probability = 0.3
+    shares = (cfg.env.zero_command_probability, cfg.env.zero_yaw_rate_probability, cfg.env.single_axis_probability)
+    assert min(shares) > 0  # what the preset has to undo
     cfg = evaluation_preset(cfg, "mild", WALK_EVALUATION)
     cfg.num_envs = 128
-    env = make_env(cfg)
-    env.reset()
-    expected = torch.tensor(WALK_EVALUATION.command).expand(128, 3)
-    torch.testing.assert_close(env.commands, expected)
+    for command in (WALK_EVALUATION.command, (0.5, 0.0, 0.5)):  # the nominal and a robustness turn
+        cfg.env.command_ranges = {key: (value, value) for key, value in zip(("lin_vel_x", "lin_vel_y", "ang_vel_z"),
+                                                                             command)}
+        env = make_env(cfg)
+        env.reset()
+        torch.testing.assert_close(env.commands, torch.tensor(command).expand(128, 3))
 
 
 def test_push_presets_are_the_calibrated_speeds_per_task_and_the_v1_ones_stay_by_name():
