@@ -4,8 +4,10 @@ envs and a stretch of steady walking at one constant command, pushes off, per pr
     python tools/reward_terms.py CKPT [--preference 0.25,0.75 --preference 0,1] [--command 0.5 0 0] [--num-envs 64]
 
 Why: to tell a reward that pays for a behaviour from a policy that falls short of what its reward pays. Every
-preference's gait is scored by the same terms, so when the gait at one preference earns less of every group that
-preference weights than the gait at another, the policy there is not optimal for its own reward.
+preference's gait is scored by the same terms, so when, at the same command, the gait at one preference earns less of
+every group that preference weights than the gait at another, the policy there falls short of its own reward. The
+terms are read after each step, on the state the env's reward was computed on, except in an env that fell in that
+step, which is read after its reset.
 """
 
 from __future__ import annotations
