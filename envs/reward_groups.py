@@ -21,8 +21,13 @@ class RewardGroups:
         self.terms = [(resolve_callable(t.func), t) for t in terms]
         self.dt = dt
 
+    def term_pay(self, env) -> torch.Tensor:
+        """[N, terms] each term's weight * value at the env's current state, per second (tools/reward_terms.py)."""
+        return torch.stack([term.weight * func(env, **term.params) for func, term in self.terms], dim=-1)
+
     def compute(self, env) -> torch.Tensor:
         groups = torch.zeros(env.num_envs, len(self.names), device=env.device)
-        for func, term in self.terms:
-            groups[:, self.index[term.group]] += term.weight * func(env, **term.params) * self.dt
+        pay = self.term_pay(env)
+        for k, (_, term) in enumerate(self.terms):
+            groups[:, self.index[term.group]] += pay[:, k] * self.dt
         return groups

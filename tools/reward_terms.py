@@ -31,8 +31,7 @@ def mean_term_pay(env, policy, preference, command, settle_s: float = SETTLE_S,
     """[terms] each term's weight x value averaged over the envs and measure_s after settle_s, per second (the
     env's reward groups add these times dt each step)."""
     steps, settle = round((settle_s + measure_s) / env.dt), round(settle_s / env.dt)
-    terms = env.rewards.terms
-    pay = torch.zeros(len(terms))
+    pay = torch.zeros(len(env.rewards.terms))
     command = torch.tensor(command, dtype=torch.float32)
     with torch.inference_mode():
         env.set_preference(preference)
@@ -42,7 +41,7 @@ def mean_term_pay(env, policy, preference, command, settle_s: float = SETTLE_S,
             env.commands[:] = command
             obs, _, _, _ = env.step(policy(obs))
             if k >= settle:
-                pay += torch.stack([term.weight * func(env, **term.params).float().mean() for func, term in terms])
+                pay += env.rewards.term_pay(env).mean(dim=0).cpu()
     return pay / (steps - settle)
 
 
