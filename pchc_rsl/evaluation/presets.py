@@ -139,7 +139,7 @@ def evaluation_preset(cfg, push_preset: str, evaluation: TaskEvaluation):
         vx, vy, wz = evaluation.command
         env.steering_ranges = dict(env.command_ranges)  # what pchc-play may still steer (pchc_rsl.viewers.steering)
         env.command_ranges = {"lin_vel_x": (vx, vx), "lin_vel_y": (vy, vy), "ang_vel_z": (wz, wz)}
-        for share in ("zero_command_probability", "zero_yaw_rate_probability", "single_axis_probability"):
-            setattr(env, share, 0.0)  # standing, straight and one-axis draws: each would replace the named command
+        # standing, straight and one-axis draws: each would replace the named command
+        env.zero_command_probability = env.zero_yaw_rate_probability = env.single_axis_probability = 0.0
     return cfg
 
