@@ -2,12 +2,16 @@
 envs and a stretch of steady walking at one constant command, pushes off, per preference, with each group's sum.
 
     python tools/reward_terms.py CKPT [--preference 0.25,0.75 --preference 0,1] [--command 0.5 0 0] [--num-envs 64]
+                                 [--sampled-actions]
 
 Why: to tell a reward that pays for a behaviour from a policy that falls short of what its reward pays. Every
 preference's gait is scored by the same terms, so when, at the same command, the gait at one preference earns less of
 every group that preference weights than the gait at another, the policy there falls short of its own reward. The
 terms are read after each step, on the state the env's reward was computed on, except in an env that fell in that
 step, which is read after its reset.
+
+``--sampled-actions`` scores the gait that training sees, the policy's action noise included, instead of its mean
+(what the robot runs): where the two differ much, the policy is trained on a gait other than the one it deploys.
 """
 
 from __future__ import annotations
@@ -52,6 +56,8 @@ def main() -> None:
     parser.add_argument("--command", type=float, nargs=3, default=[0.5, 0.0, 0.0], metavar=("VX", "VY", "WZ"))
     parser.add_argument("--num-envs", type=int, default=64)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--sampled-actions", action="store_true",
+                        help="act with the policy's action noise, as in training (default: its mean, as deployed)")
     args = parser.parse_args()
 
     from pchc_rsl.evaluation import evenly_spaced_preferences
@@ -61,10 +67,12 @@ def main() -> None:
                                  ["env.push.enabled=false"])
     preferences = ([tuple(float(x) for x in p.split(",")) for p in args.preference] if args.preference
                    else evenly_spaced_preferences(5))
-    pays = [mean_term_pay(env, policy, p, args.command) for p in preferences]
+    act = (lambda obs: policy(obs, stochastic_output=True)) if args.sampled_actions else policy
+    pays = [mean_term_pay(env, act, p, args.command) for p in preferences]
     terms = [term for _, term in env.rewards.terms]
     print(f"{args.checkpoint}: pay per second (weight x value), {args.num_envs} envs, told {tuple(args.command)}, "
-          f"pushes off, over {MEASURE_S:g} s after {SETTLE_S:g} s")
+          f"pushes off, over {MEASURE_S:g} s after {SETTLE_S:g} s, "
+          f"{'sampled actions (training noise)' if args.sampled_actions else 'mean actions'}")
     print("| term | group | " + " | ".join(f"({', '.join(f'{x:g}' for x in p)})" for p in preferences) + " |")
     print("|---|---|" + "---|" * len(preferences))
     for i, term in enumerate(terms):
