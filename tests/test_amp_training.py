@@ -1,3 +1,5 @@
+import os
+
 import numpy as np
 import pytest
 import torch
@@ -40,6 +42,26 @@ def test_style_reward_joins_the_task_group_and_the_checkpoint(tmp_path, capsys):
                 str(tmp_path / "run"), "--motion-files", str(tmp_path / "clip.npz")])
     checkpoint = torch.load(tmp_path / "run" / "model_0.pt", weights_only=True)
     assert "discriminator" in checkpoint["amp_state_dict"]
+
+
+def test_a_checkpoint_runs_where_its_motion_clips_are_not(tmp_path):
+    """A checkpoint names its clips by the paths they had where it was trained. Moved to another machine (here: the
+    clip deleted), it still evaluates and exports; only training reads the clips."""
+    from pchc_rsl.cli import eval as eval_cli
+    from pchc_rsl.cli import train
+    from pchc_rsl.training.checkpoint_export import export_checkpoint
+
+    clip = tmp_path / "clip.npz"
+    write_clip(clip, WALK_JOINTS)
+    train.main(["--task", "g1-walk-fast", "--num-envs", "2", "--max-iterations", "1", "--log-dir",
+                str(tmp_path / "run"), "--motion-files", str(clip)])
+    checkpoint = str(tmp_path / "run" / "model_0.pt")
+    assert torch.load(checkpoint, weights_only=True)["config"]["runner"]["algorithm"]["amp_cfg"]["motion_files"]
+    clip.unlink()
+    eval_cli.main([checkpoint, "--num-envs", "2", "--episode-length", "0.2", "--preferences", "2", "--output",
+                   str(tmp_path / "eval")])
+    assert (tmp_path / "eval" / "results.json").exists()
+    assert os.path.getsize(export_checkpoint(checkpoint, str(tmp_path / "policy.onnx"))) > 0
 
 
 def test_training_without_motions_says_amp_is_off(tmp_path, capsys):

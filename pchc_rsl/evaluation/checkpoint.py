@@ -32,9 +32,9 @@ def evaluation_config(config: dict, preset: str | None, num_envs: int, seed: int
 
 def loaded_policy(path: str, cfg, verbose: bool = False):
     """(runner, deterministic policy) for ``cfg`` with the checkpoint at ``path`` loaded."""
-    from pchc_rsl.training.build import make_runner
+    from pchc_rsl.training.build import for_running, make_runner
 
-    runner = make_runner(cfg, verbose=verbose)
+    runner = make_runner(for_running(cfg), verbose=verbose)
     runner.load(path)
     return runner, runner.get_inference_policy()
 

@@ -84,6 +84,14 @@ def placed(cfg: TaskConfig, device: str) -> TaskConfig:
     return cfg
 
 
+def for_running(cfg: TaskConfig) -> TaskConfig:
+    """``cfg`` for running a trained policy (evaluating, playing, exporting): without the AMP discriminator, which
+    only training uses. A checkpoint names its motion clips by the paths they had where it was trained; without this
+    it could not be run anywhere else."""
+    cfg.runner.algorithm.amp_cfg = None
+    return cfg
+
+
 def saved_config(path: str, loaded: dict) -> dict:
     """The resolved config pchc-train stored in a loaded checkpoint; ValueError naming the file if there is none."""
     config = loaded.get("config") or {}

@@ -4,7 +4,7 @@ deploy metadata, which is what pchc-export-onnx writes."""
 from __future__ import annotations
 
 from pchc_rsl.runners import load_checkpoint
-from pchc_rsl.training.build import make_runner, placed, restore_config, saved_config
+from pchc_rsl.training.build import for_running, make_runner, placed, restore_config, saved_config
 
 
 def export_checkpoint(checkpoint: str, output: str, verbose: bool = False) -> str:
@@ -14,7 +14,7 @@ def export_checkpoint(checkpoint: str, output: str, verbose: bool = False) -> st
     cfg.num_envs = 1
     if hasattr(cfg.env, "curriculum"):
         cfg.env.curriculum = False  # the deployed action scale is the curriculum's final one, as pchc-eval runs it
-    runner = make_runner(cfg, verbose=verbose)
+    runner = make_runner(for_running(cfg), verbose=verbose)
     runner.load(checkpoint)
     metadata = None
     if hasattr(runner.env, "deploy_metadata"):
