@@ -79,6 +79,8 @@ class G1Env(VecEnv):
                               device=dev)
         half = 0.45 * (ranges[:, 1:] - ranges[:, :1])
         self.soft_joint_limits = ranges.mean(-1, keepdim=True) + half * torch.tensor([-1.0, 1.0], device=dev)
+        self._knee_idx = torch.tensor([i for i, j in enumerate(cfg.joints) if "knee" in j], dtype=torch.long,
+                                      device=dev)
 
         n = num_envs
         self.rewards = RewardGroups(cfg.rewards, cfg.objective_names, self.dt)
@@ -375,6 +377,8 @@ class G1Env(VecEnv):
             "settled_touchdowns": feet.first_contact.float() * settled[:, None],  # [N, foot]
             "settled_forward_step_sum": step[..., 0] * settled[:, None],  # [N, foot]
             "forward_speed_sum": self.robot.base_lin_vel[:, 0],
+            "base_height_sum": self.robot.base_pos[:, 2],
+            "knee_angle_sum": self.robot.joint_pos[:, self._knee_idx].mean(-1),
             "command_speed_sum": self.commands[:, 0],
             "lateral_speed_sum": self.robot.base_lin_vel[:, 1],
             "lateral_command_sum": self.commands[:, 1],
@@ -424,6 +428,8 @@ class G1Env(VecEnv):
             "side_step": ratio(s["side_step_sum"], touchdowns),
             "backward_touchdowns": 100.0 * ratio(s["backward_touchdowns"], touchdowns),
             "forward_speed": ratio(s["forward_speed_sum"], s["steps"]),
+            "base_height": ratio(s["base_height_sum"], s["steps"]),
+            "knee_flexion": ratio(s["knee_angle_sum"], s["steps"]) * (180.0 / math.pi),
             "command_speed": ratio(s["command_speed_sum"], s["steps"]),
             "air_time_left": swing[:, 0],
             "air_time_right": swing[:, 1],

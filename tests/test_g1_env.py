@@ -639,6 +639,26 @@ def test_per_foot_gait_heading_and_steering_metrics_of_a_scripted_limping_turn()
     assert m["lateral_drift"] == pytest.approx(0.8, abs=1e-6)
 
 
+def test_posture_metrics_are_the_episode_means_of_pelvis_height_and_knee_angle():
+    """Two envs, 10 steps: env 0 holds the pelvis at 0.76 m with both knees at 0.67 rad; env 1 crouches from 0.76 to
+    0.58 m in 0.02 m steps (mean 0.67) with the left knee at 1.2 and the right at 1.6 rad (mean 1.4 rad = 80.21
+    deg). The knees are found by name, so a joint reorder cannot hand the metric a hip."""
+    env = make_walk_env(num_envs=2)
+    ids = torch.tensor([0, 1])
+    env.episode.reset(ids)
+    left, right = env.cfg.joints.index("left_knee_joint"), env.cfg.joints.index("right_knee_joint")
+    for i in range(10):
+        joint_pos = torch.zeros(2, len(env.cfg.joints))
+        joint_pos[0, [left, right]] = 0.67
+        joint_pos[1, left], joint_pos[1, right] = 1.2, 1.6
+        env.robot.joint_pos = joint_pos
+        env.robot.base_pos = torch.tensor([[0.0, 0.0, 0.76], [0.0, 0.0, 0.76 - 0.02 * i]])
+        env.record_step_metrics()
+    m = env.episode_metrics(ids)
+    assert m["base_height"].tolist() == pytest.approx([0.76, 0.67], abs=1e-6)
+    assert m["knee_flexion"].tolist() == pytest.approx([math.degrees(0.67), math.degrees(1.4)], abs=1e-4)
+
+
 def test_heading_error_is_the_turn_against_the_commanded_turn_since_the_command():
     """Told to turn at 0.5 rad/s, a robot standing still for 20 steps (0.4 s) is 0.2 rad short of its commanded
     heading, plus whatever it turned by itself, read here from the pelvis quaternion; a new command starts over."""

@@ -48,6 +48,7 @@ WALK_EVALUATION = TaskEvaluation(
              "forward_step_right": "Forward step right (m)", "step_ratio": "Step L/R ratio",
              "heading_drift_median": "Heading drift, median (deg)", "heading_drift_p90": "Heading drift, p90 (deg)",
              "lateral_drift": "Lateral drift (m)",
+             "base_height": "Pelvis height (m)", "knee_flexion": "Knee flexion (deg)",
              "strong/fall_rate": "Falls, strong pushes (%)"},
     front=(("push_deviation", -1.0), ("stride_length", 1.0)),
     reference_point=(-2.0, 0.0),
