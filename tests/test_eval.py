@@ -94,6 +94,39 @@ def test_eval_cli_writes_the_tables_and_plots(tmp_path, task, columns):
         assert all(not math.isnan(r["metrics"]["energy_overall"]) for r in rows)
 
 
+def test_steady_walk_holds_the_command_and_flags_the_measured_steps():
+    """settle 0.1 s and measure 0.2 s at dt 0.02: one yield after the reset, then 15 steps, the last 10 measured,
+    every step told the command and acted on from the observation the step before returned."""
+    from pchc_rsl.evaluation import steady_walk
+
+    class CountingEnv:
+        dt, num_envs = 0.02, 1
+
+        def __init__(self):
+            self.commands, self.steps, self.told = torch.zeros(1, 3), 0, []
+
+        def set_preference(self, preference):
+            self.preference = preference
+
+        def reset(self):
+            self.steps = 0
+
+        def get_observations(self):
+            return self.steps
+
+        def step(self, action):
+            assert action == self.steps  # the policy saw the latest observation
+            self.told.append(self.commands.clone())
+            self.steps += 1
+            return self.steps, None, None, None
+
+    env = CountingEnv()
+    flags = [measuring for _, measuring in steady_walk(env, lambda obs: obs, (0.2, 0.8), (0.5, 0.0, 0.3), 0.1, 0.2)]
+    assert flags == [False] * 6 + [True] * 10
+    assert env.preference == (0.2, 0.8) and env.steps == 15
+    assert all(torch.equal(told, torch.tensor([[0.5, 0.0, 0.3]])) for told in env.told)
+
+
 def test_settle_time_of_a_step_change():
     # 1 before step 100, 2 from it on; trailing 1 s (50-step) average at t >= 100: 1 + (t - 99) / 50. Its range after
     # the switch is 2 - 1.02 = 0.98, so it has settled when 2 - avg <= 0.098, i.e. from t = 145: 0.9 s after.

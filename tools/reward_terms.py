@@ -34,19 +34,14 @@ def mean_term_pay(env, policy, preference, command, settle_s: float = SETTLE_S,
                   measure_s: float = MEASURE_S) -> torch.Tensor:
     """[terms] each term's weight x value averaged over the envs and measure_s after settle_s, per second (the
     env's reward groups add these times dt each step)."""
-    steps, settle = round((settle_s + measure_s) / env.dt), round(settle_s / env.dt)
-    pay = torch.zeros(len(env.rewards.terms))
-    command = torch.tensor(command, dtype=torch.float32)
-    with torch.inference_mode():
-        env.set_preference(preference)
-        env.reset()
-        obs = env.get_observations()
-        for k in range(steps):
-            env.commands[:] = command
-            obs, _, _, _ = env.step(policy(obs))
-            if k >= settle:
-                pay += env.rewards.term_pay(env).mean(dim=0).cpu()
-    return pay / (steps - settle)
+    from pchc_rsl.evaluation import steady_walk
+
+    pay, measured = torch.zeros(len(env.rewards.terms)), 0
+    for _, measuring in steady_walk(env, policy, preference, command, settle_s, measure_s):
+        if measuring:
+            pay += env.rewards.term_pay(env).mean(dim=0).cpu()
+            measured += 1
+    return pay / measured
 
 
 def main() -> None:

@@ -22,7 +22,7 @@ import math
 import torch
 
 from pchc_rsl.envs.g1_env import wrap_angle
-from pchc_rsl.evaluation import evenly_spaced_preferences
+from pchc_rsl.evaluation import evenly_spaced_preferences, steady_walk
 
 SETTLE_S, MEASURE_S = 1.0, 7.0
 
@@ -30,24 +30,17 @@ SETTLE_S, MEASURE_S = 1.0, 7.0
 def response(env, policy, preference, command, sampled: bool = False) -> dict:
     """Per env over MEASURE_S after SETTLE_S at a constant command: mean yaw rate (rad/s), mean forward speed (m/s,
     base frame), heading change (deg). ``sampled``: actions drawn from the policy's distribution, not its mean."""
-    steps, settle = round((SETTLE_S + MEASURE_S) / env.dt), round(SETTLE_S / env.dt)
+    act = (lambda obs: policy(obs, stochastic_output=True)) if sampled else policy
     turned = torch.zeros(env.num_envs)
     speed = torch.zeros(env.num_envs)
-    command = torch.tensor(command)
-    with torch.inference_mode():
-        env.set_preference(preference)
-        env.reset()
-        obs = env.get_observations()
-        previous = env.robot.yaw.clone()
-        for k in range(steps):
-            env.commands[:] = command
-            obs, _, _, _ = env.step(policy(obs, stochastic_output=True) if sampled else policy(obs))
-            yaw = env.robot.yaw.clone()
-            if k >= settle:
-                turned += wrap_angle(yaw - previous)
-                speed += env.robot.base_lin_vel[:, 0]
-            previous = yaw
-    measured = steps - settle
+    measured = 0
+    for _, measuring in steady_walk(env, act, preference, command, SETTLE_S, MEASURE_S):
+        yaw = env.robot.yaw.clone()
+        if measuring:
+            turned += wrap_angle(yaw - previous)
+            speed += env.robot.base_lin_vel[:, 0]
+            measured += 1
+        previous = yaw
     return {"yaw_rate": turned / (measured * env.dt), "speed": speed / measured,
             "heading_change": turned.abs() * 180.0 / math.pi}
 

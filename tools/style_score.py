@@ -27,18 +27,10 @@ def style_of(style, windows: torch.Tensor) -> tuple[float, float]:
 
 def walked_windows(env, policy, preference, command) -> torch.Tensor:
     """[steps * N, window * joints] the AMP windows of MEASURE_S of walking after SETTLE_S at ``command``."""
-    steps, settle = round((SETTLE_S + MEASURE_S) / env.dt), round(SETTLE_S / env.dt)
-    windows = []
-    with torch.inference_mode():
-        env.set_preference(preference)
-        env.reset()
-        obs = env.get_observations()
-        for k in range(steps):
-            env.commands[:] = torch.tensor(command)
-            obs, _, _, _ = env.step(policy(obs))
-            if k >= settle:
-                windows.append(obs["amp"].clone())
-    return torch.cat(windows)
+    from pchc_rsl.evaluation import steady_walk
+
+    walked = steady_walk(env, policy, preference, command, SETTLE_S, MEASURE_S)
+    return torch.cat([obs["amp"].clone() for obs, measuring in walked if measuring])
 
 
 def main() -> None:

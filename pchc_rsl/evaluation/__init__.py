@@ -20,7 +20,7 @@ from pchc_rsl.evaluation.presets import (
 )
 from pchc_rsl.evaluation.report import format_metric, front_points, front_summary, markdown_table, write_outputs
 from pchc_rsl.evaluation.robustness import Condition, default_conditions, run_robustness, write_robustness
-from pchc_rsl.evaluation.runs import run_episodes, run_return_episodes, settle_time, switching_run
+from pchc_rsl.evaluation.runs import run_episodes, run_return_episodes, settle_time, steady_walk, switching_run
 from pchc_rsl.evaluation.statistics import RATE_METRICS, aggregate, wilson_interval
 
 __all__ = [
@@ -28,5 +28,6 @@ __all__ = [
     "WALK_EVALUATION", "aggregate", "default_conditions", "evaluate_checkpoint", "evaluation_config",
     "evaluation_preset", "evenly_spaced_preferences", "format_metric", "front_points", "front_summary",
     "loaded_policy", "markdown_table", "run_episodes", "run_return_episodes", "run_robustness", "settle_time",
-    "switching_run", "task_config_of", "trained_preference", "wilson_interval", "write_outputs", "write_robustness",
+    "steady_walk", "switching_run", "task_config_of", "trained_preference", "wilson_interval", "write_outputs",
+    "write_robustness",
 ]

@@ -87,6 +87,23 @@ def run_return_episodes(env, policy, preference, episodes: int, progress: str = 
     return results, np.array(curve)
 
 
+def steady_walk(env, policy, preference, command, settle_s: float, measure_s: float):
+    """Hold one preference and one command (vx, vy, wz) from a reset for settle_s + measure_s, acting with
+    ``policy``. Yields once after the reset and once after every step: (observations, whether that step lies in the
+    measured stretch after settle_s), so that a tool measures a walker once it got going, not its start-up."""
+    steps, settle = round((settle_s + measure_s) / env.dt), round(settle_s / env.dt)
+    command = torch.as_tensor(command, dtype=torch.float32)
+    with torch.inference_mode():
+        env.set_preference(preference)
+        env.reset()
+        obs = env.get_observations()
+        yield obs, False
+        for k in range(steps):
+            env.commands[:] = command
+            obs, _, _, _ = env.step(policy(obs))
+            yield obs, k >= settle
+
+
 def switching_run(env, policy, before, after, switch_step: int) -> dict:
     """One episode at ``before`` switched to ``after`` at ``switch_step``: per-step mean objective rewards [T, m],
     falls, and the time (s) after the switch until the objective curves settle (see ``settle_time``)."""
