@@ -25,12 +25,13 @@ def style_of(style, windows: torch.Tensor) -> tuple[float, float]:
         return float(score.mean()), float(style.discriminator.style_reward(windows, style.scale).mean())
 
 
-def walked_windows(env, policy, preference, command) -> torch.Tensor:
-    """[steps * N, window * joints] the AMP windows of MEASURE_S of walking after SETTLE_S at ``command``."""
+def walked_windows(env, policy, preference, command, group: str) -> torch.Tensor:
+    """[steps * N, window * joints] the AMP windows (observation ``group``) of MEASURE_S of walking after SETTLE_S
+    at ``command``."""
     from pchc_rsl.evaluation import steady_walk
 
     walked = steady_walk(env, policy, preference, command, SETTLE_S, MEASURE_S)
-    return torch.cat([obs["amp"].clone() for obs, measuring in walked if measuring])
+    return torch.cat([obs[group].clone() for obs, measuring in walked if measuring])
 
 
 def main() -> None:
@@ -43,6 +44,7 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
 
+    from pchc_rsl.algorithms import MultiCriticPPO
     from pchc_rsl.amp.style import AMPStyle
     from pchc_rsl.evaluation import evenly_spaced_preferences
     from pchc_rsl.evaluation.checkpoint import load_policy
@@ -56,7 +58,7 @@ def main() -> None:
         amp_cfg["motion_files"] = args.motion_files
     _, env, policy = load_policy(args.checkpoint, args.num_envs, args.seed, SETTLE_S + MEASURE_S + 1.0, None,
                                  ["env.push.enabled=false"])
-    style = AMPStyle(fps=1.0 / env.dt, input_dim=env.get_observations()["amp"].shape[-1], **amp_cfg)
+    style = AMPStyle(**MultiCriticPPO._resolve_amp(amp_cfg, env.get_observations(), env))
     style.load_state_dict(saved["amp_state_dict"])
 
     print(f"{args.checkpoint}: discriminator score D (clips +1, policy -1 when told apart) and style reward per step "
@@ -67,7 +69,7 @@ def main() -> None:
     score, reward = style_of(style, style.reference.sample(4096))
     print(f"| reference clips | {score:.3f} | {reward:.4f} |")
     for preference in evenly_spaced_preferences(args.preferences):
-        score, reward = style_of(style, walked_windows(env, policy, preference, args.command))
+        score, reward = style_of(style, walked_windows(env, policy, preference, args.command, style.obs_group))
         print(f"| policy at ({', '.join(f'{x:g}' for x in preference)}) | {score:.3f} | {reward:.4f} |", flush=True)
 
 
