@@ -24,7 +24,8 @@ def walk_rewards() -> list[RewardTerm]:
     single-stance term that pays the feet taking turns, and unitree_rl_gym's G1 hip_pos penalty on hip roll and yaw
     against straddling (``backward_touchdown`` and a task-group ``fall`` cost are left out: docs/design.md). The
     objectives are the paper's equations: r_stride read per stance step and paid at the commanded speed
-    (docs/design.md, "The stride speed gate"), r_disturb with a fall costing 5 (docs/design.md, "Fall costs")."""
+    (docs/design.md, "The stride speed gate"), each step as the step its cadence makes at the commanded speed
+    (``commanded_length``), r_disturb with a fall costing 5 (docs/design.md, "Fall costs")."""
     return [
         RewardTerm(R + "track_lin_vel_xy", 4.0, params={"std": 0.5}),
         RewardTerm(R + "track_lin_vel_xy", 1.0, params={"std": 0.15}),
@@ -47,7 +48,7 @@ def walk_rewards() -> list[RewardTerm]:
         RewardTerm(R + "alive", 1.0),
         RewardTerm(R + "disturbance", 1.0, group="disturbance", params={"fall_cost": 5.0}),
         RewardTerm(R + "stride", 1.0, group="stride",
-                   params={"speed_std": 0.25, "along_command": True, "fall_cost": 0.0}),
+                   params={"speed_std": 0.25, "along_command": True, "fall_cost": 0.0, "commanded_length": True}),
     ]
 
 
@@ -64,6 +65,7 @@ def walk_env(fast: bool = False) -> G1EnvConfig:
         command_ranges={"lin_vel_x": (-0.5, 1.0), "lin_vel_y": (-0.5, 0.5), "ang_vel_z": (-1.0, 1.0)},
         zero_command_probability=0.15,  # standing still is a command too (the evaluation's 0 m/s)
         zero_yaw_rate_probability=0.3,  # walking straight: holding a heading is trained, not only turning
+        single_axis_probability=0.3,  # a pure side step or turn on the spot, as an operator's stick gives
         command_resample_s=(4.0, 8.0),  # steered within an episode, as an operator does
         action_delay_s=(0.0, 0.02),  # a robot's 0-20 ms from sensing to actuation
         push=PushConfig(velocity=(0.3, 2.0)),  # spans the evaluation presets, mild to strong
@@ -71,12 +73,18 @@ def walk_env(fast: bool = False) -> G1EnvConfig:
         objective_names=["disturbance", "stride"],  # Table II's order: lambda = (0, 1) prioritises stride
         rewards=walk_rewards(),
         termination_height=0.45,
+        critic_command_state=True,  # the critics see how far the robot is off its commanded path
     )
 
 
 def g1_walk_task(fast: bool = False) -> TaskConfig:
+    """The walking task as the released walker trains (docs/results/g1_walk.md, "Recipe and lineage"): the
+    disturbance end draws half the action noise the stride end draws (docs/design.md, "Action noise")."""
     env = walk_env(fast)
-    return g1_task_config("g1-walk-fast" if fast else "g1-walk", "pchc_rsl.envs.g1_env:G1Env", env, "g1_walk", symmetry=True)
+    cfg = g1_task_config("g1-walk-fast" if fast else "g1-walk", "pchc_rsl.envs.g1_env:G1Env", env, "g1_walk",
+                         symmetry=True)
+    cfg.runner.actor.kwargs |= {"objective_noise_scales": [0.5, 1.0]}
+    return cfg
 
 
 def g1_walk_fast_task() -> TaskConfig:

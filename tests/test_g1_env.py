@@ -399,8 +399,9 @@ def test_velocity_average_is_an_exponential_average_of_the_base_velocity_and_yaw
 def test_critic_push_timing_adds_the_window_left_and_the_time_to_the_next_push():
     from pchc_rsl.envs.g1_config import PushConfig
 
-    plain = make_walk_env(num_envs=1)
-    env = make_walk_env(num_envs=1, critic_push_timing=True, push=PushConfig(interval_s=(2.0, 2.0), window_s=1.0))
+    plain = make_walk_env(num_envs=1, critic_command_state=False)
+    env = make_walk_env(num_envs=1, critic_command_state=False, critic_push_timing=True,
+                        push=PushConfig(interval_s=(2.0, 2.0), window_s=1.0))
     assert env.get_observations()["critic"].shape[-1] == plain.get_observations()["critic"].shape[-1] + 2
     push_now(env)
     env.step(torch.zeros(1, 20))  # one policy step (0.02 s) after the push
@@ -414,7 +415,7 @@ def test_critic_command_state_adds_the_path_offset_in_the_heading_frame_the_head
     frame the offset is 0.1 m ahead and 0.3 m to its right, (0.1, -0.3)."""
     import math
 
-    plain = make_walk_env(num_envs=1)
+    plain = make_walk_env(num_envs=1, critic_command_state=False)
     env = make_walk_env(num_envs=1, critic_command_state=True)
     width = env.get_observations()["critic"].shape[-1]
     assert width == plain.get_observations()["critic"].shape[-1] + 6
@@ -688,7 +689,7 @@ def test_commands_are_resampled_within_an_episode_with_standing_and_straight_sha
     """command_resample_s draws a new command every 1-2 s (50-100 steps); over 400 steps of 256 envs each env gets
     4-8 commands, about 20% of them all zero and 25% of the rest with no yaw rate."""
     env = make_walk_env(num_envs=256, command_resample_s=(1.0, 2.0), zero_command_probability=0.2,
-                        zero_yaw_rate_probability=0.25)
+                        zero_yaw_rate_probability=0.25, single_axis_probability=0.0)
     seen, draws = [], torch.zeros(256)
     for _ in range(400):
         countdown = env.command_countdown.clone()

@@ -39,6 +39,24 @@ def test_shipped_files_are_small_and_the_onnx_is_the_same_policy(name):
     assert check_onnx_against_torch(module, onnx, atol=1e-4) <= 1e-4
 
 
+def test_the_walking_config_fine_tunes_the_shipped_walker():
+    """README's fine-tune, `pchc-train --task g1-walk-fast --init-from policies/g1_walk.pt`: the task's config builds
+    networks the shipped walker's weights fit, and trains it as it was trained."""
+    from pchc_rsl.cli.train import INIT_FROM_PARTS
+    from pchc_rsl.configs import task_config
+    from pchc_rsl.runners import load_checkpoint
+    from pchc_rsl.training.build import make_runner, saved_config
+
+    pt = shipped("g1_walk")
+    cfg = task_config("g1-walk-fast")
+    cfg.num_envs, cfg.device = 1, "cpu"
+    runner = make_runner(cfg)
+    runner.load(pt, load_cfg=INIT_FROM_PARTS, widen_critic=True)
+    trained = saved_config(pt, load_checkpoint(pt))
+    assert trained["runner"]["actor"]["kwargs"] == cfg.runner.actor.kwargs
+    assert trained["env"]["rewards"] == [vars(term) for term in cfg.env.rewards]
+
+
 def test_shipped_walker_stays_up_and_strides_longer_at_the_stride_end(tmp_path):
     from pchc_rsl.cli import eval as eval_cli
 
