@@ -58,7 +58,7 @@ def main() -> None:
         amp_cfg["motion_files"] = args.motion_files
     _, env, policy = load_policy(args.checkpoint, args.num_envs, args.seed, SETTLE_S + MEASURE_S + 1.0, None,
                                  ["env.push.enabled=false"])
-    style = AMPStyle(**MultiCriticPPO._resolve_amp(amp_cfg, env.get_observations(), env))
+    style = AMPStyle(**MultiCriticPPO.resolve_amp_config(amp_cfg, env.get_observations(), env))
     style.load_state_dict(saved["amp_state_dict"])
 
     print(f"{args.checkpoint}: discriminator score D (clips +1, policy -1 when told apart) and style reward per step "

@@ -243,8 +243,9 @@ class MultiCriticPPO(PPO):
                 torch.distributed.broadcast(tensor, src=0)
 
     @staticmethod
-    def _resolve_amp(amp_cfg: dict | None, obs: TensorDict, env: VecEnv) -> dict | None:
-        """Fill the AMP input width and the motion frame rate (the policy rate); None (with a note) without motions."""
+    def resolve_amp_config(amp_cfg: dict | None, obs: TensorDict, env: VecEnv) -> dict | None:
+        """Fill the AMP input width and the motion frame rate (the policy rate); None (with a note) without motions.
+        Public so that tools rebuild the style reward exactly as training does (tools/style_score.py)."""
         if not amp_cfg:
             return None
         amp_cfg = dict(amp_cfg)
@@ -284,7 +285,7 @@ class MultiCriticPPO(PPO):
                 f"does not provide (groups: {list(obs.keys())})."
             )
         num_critics = 1 + obs[preference_group].shape[-1]
-        alg_cfg["amp_cfg"] = MultiCriticPPO._resolve_amp(alg_cfg.get("amp_cfg"), obs, env)
+        alg_cfg["amp_cfg"] = MultiCriticPPO.resolve_amp_config(alg_cfg.get("amp_cfg"), obs, env)
 
         actor: MLPModel = actor_class(obs, cfg["obs_groups"], "actor", env.num_actions, **actor_cfg).to(device)
         print(f"Actor Model: {actor}")
