@@ -52,3 +52,27 @@ def test_checkpoints_of_different_networks_are_refused(two_checkpoints):
         load_tool("average_checkpoints").main([str(root / "other.pt"), new, "--out", str(root / "x.pt")])
     with pytest.raises(ValueError, match="at least two"):
         load_tool("average_checkpoints").main([new, "--out", str(root / "x.pt")])
+
+
+def test_weights_interpolate_and_actor_only_keeps_the_newest_critics(two_checkpoints):
+    root, old, new = two_checkpoints
+    a, b = torch.load(old, weights_only=True), torch.load(new, weights_only=True)
+    widened = torch.load(old, weights_only=True)  # a critic of another shape, as --init-from widens one
+    name = next(n for n, t in widened["critic_state_dict"].items() if t.is_floating_point() and t.dim() == 2)
+    widened["critic_state_dict"][name] = torch.zeros(3, 3)
+    torch.save(widened, root / "widened.pt")
+    tool = load_tool("average_checkpoints")
+    with pytest.raises(ValueError, match="not the same network"):
+        tool.main([str(root / "widened.pt"), new, "--weights", "1", "3", "--out", str(root / "x.pt")])
+    out = tool.main([new, str(root / "widened.pt"), "--weights", "3", "1", "--actor-only", "--out", str(root / "w.pt")])
+    mixed = torch.load(out, weights_only=True)
+    for name, tensor in a["actor_state_dict"].items():
+        if tensor.is_floating_point() and not name.endswith("_std"):
+            assert torch.allclose(mixed["actor_state_dict"][name], 0.25 * tensor + 0.75 * b["actor_state_dict"][name])
+    for key in ("critic_state_dict", "value_normalizer_state_dict"):
+        for name, tensor in b[key].items():
+            assert torch.equal(mixed[key][name], tensor), name
+    assert mixed["averaged_weights"] == [0.25, 0.75]
+    for bad, message in ((["1"], "one weight per checkpoint"), (["1", "-1"], ">= 0"), (["0", "0"], ">= 0")):
+        with pytest.raises(ValueError, match=message):
+            tool.main([new, old, "--weights", *bad, "--out", str(root / "x.pt")])

@@ -1,6 +1,7 @@
 """Average the networks of several checkpoints of one run (uniform weight averaging, as in SWA).
 
     python tools/average_checkpoints.py RUN/model_{350,400,450,500,550}.pt --out avg.pt
+    python tools/average_checkpoints.py A.pt B.pt --weights 0.4 0.6 --actor-only --out mix.pt  # 0.6 of the way to B
 
 Why: late in a run PPO keeps moving the policy, and consecutive checkpoints 50 iterations apart differ by more than
 a table's intervals at the ends of the preference range (docs/design.md, "Checkpoint averaging"). The mean of the
@@ -13,6 +14,11 @@ mean of the stds is not the std of the mean variance). Everything else (config, 
 curriculum) is the newest checkpoint's. The optimizer state
 is dropped, so ``pchc-train --resume`` starts a fresh one, as for a released policy. The file records what it was
 averaged from under ``averaged_from`` (run folder, file and iteration of each).
+
+``--weights`` makes it a weighted mean (two checkpoints: a point on the straight line between them in weight space,
+as WiSE-FT interpolates a fine-tuned network with the one it started from). ``--actor-only`` averages the actor and
+takes the critics from the newest checkpoint, for checkpoints whose critics differ in shape (``--init-from`` widens
+the critics of a policy trained without ``critic_command_state``); evaluating and playing use the actor alone.
 """
 
 from __future__ import annotations
@@ -28,8 +34,9 @@ from pchc_rsl.utils.files import atomic_write
 AVERAGED = ("actor_state_dict", "critic_state_dict", "value_normalizer_state_dict")
 
 
-def average_state_dicts(dicts: list[dict], names: list[str]) -> dict:
-    """Mean of each floating-point tensor; other entries (sample counts) from the last. Keys and shapes must match."""
+def average_state_dicts(dicts: list[dict], names: list[str], weights: list[float] | None = None) -> dict:
+    """(Weighted) mean of each floating-point tensor; other entries (sample counts) from the last. Keys and shapes
+    must match."""
     first = dicts[0]
     for state, name in zip(dicts[1:], names[1:]):
         if state.keys() != first.keys():
@@ -38,7 +45,8 @@ def average_state_dicts(dicts: list[dict], names: list[str]) -> dict:
             if state[key].shape != tensor.shape:
                 raise ValueError(f"{name}: {key} has shape {tuple(state[key].shape)}, {names[0]} has "
                                  f"{tuple(tensor.shape)}: not the same network.")
-    averaged = {key: torch.stack([d[key] for d in dicts]).mean(0) if value.is_floating_point() else dicts[-1][key]
+    w = torch.full((len(dicts),), 1.0 / len(dicts)) if weights is None else torch.tensor(weights)
+    averaged = {key: mean_of([d[key] for d in dicts], w) if value.is_floating_point() else dicts[-1][key]
                 for key, value in dicts[-1].items()}
     for key in averaged:  # rsl-rl's EmpiricalNormalization keeps _var and _std = sqrt(_var) side by side
         if key.endswith("_std") and key[: -len("_std")] + "_var" in averaged:
@@ -46,25 +54,45 @@ def average_state_dicts(dicts: list[dict], names: list[str]) -> dict:
     return averaged
 
 
+def mean_of(tensors: list[torch.Tensor], weights: torch.Tensor) -> torch.Tensor:
+    stacked = torch.stack(tensors)
+    return (weights.to(stacked.dtype).view(-1, *([1] * (stacked.dim() - 1))) * stacked).sum(0)
+
+
 def run_and_file(path: str) -> str:
     """'RUN/model_N.pt' without the folders above the run's, which mean nothing where the file is shipped to."""
     return os.path.join(os.path.basename(os.path.dirname(os.path.abspath(path))), os.path.basename(path))
 
 
-def average_checkpoints(paths: list[str]) -> dict:
+def checked_weights(weights: list[float] | None, count: int) -> list[float] | None:
+    """``weights`` scaled to sum to 1; ValueError unless there is one non-negative weight per checkpoint."""
+    if weights is None:
+        return None
+    if len(weights) != count:
+        raise ValueError(f"Give one weight per checkpoint: {len(weights)} weights for {count} checkpoints.")
+    if any(w < 0 for w in weights) or sum(weights) <= 0:
+        raise ValueError(f"The weights must be >= 0 and not all 0 (got {weights}).")
+    return [w / sum(weights) for w in weights]
+
+
+def average_checkpoints(paths: list[str], weights: list[float] | None = None, actor_only: bool = False) -> dict:
     if len(paths) < 2:
         raise ValueError("Give at least two checkpoints to average.")
+    weights = checked_weights(weights, len(paths))
     saved = [load_checkpoint(path) for path in paths]
     order = sorted(range(len(paths)), key=lambda i: saved[i].get("iter", 0))
     saved, paths = [saved[i] for i in order], [paths[i] for i in order]
+    weights = None if weights is None else [weights[i] for i in order]
     tasks = {s.get("config", {}).get("task") for s in saved}
     if len(tasks) != 1:
         raise ValueError(f"The checkpoints come from different tasks ({', '.join(sorted(map(str, tasks)))}).")
     averaged = {key: value for key, value in saved[-1].items() if key != "optimizer_state_dict"}
-    for key in AVERAGED:
+    for key in AVERAGED[:1] if actor_only else AVERAGED:
         if all(key in s for s in saved):
-            averaged[key] = average_state_dicts([s[key] for s in saved], paths)
+            averaged[key] = average_state_dicts([s[key] for s in saved], paths, weights)
     averaged["averaged_from"] = [f"{run_and_file(path)}@{s.get('iter')}" for path, s in zip(paths, saved)]
+    if weights is not None:
+        averaged["averaged_weights"] = weights
     return averaged
 
 
@@ -72,8 +100,12 @@ def main(argv: list[str] | None = None) -> str:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("checkpoints", nargs="+")
     parser.add_argument("--out", required=True, help="the averaged checkpoint's path")
+    parser.add_argument("--weights", type=float, nargs="+", help="one per checkpoint, in the order given "
+                        "(scaled to sum to 1; default: equal)")
+    parser.add_argument("--actor-only", action="store_true", help="average the actor only; the critics are the "
+                        "newest checkpoint's")
     args = parser.parse_args(argv)
-    averaged = average_checkpoints(args.checkpoints)
+    averaged = average_checkpoints(args.checkpoints, args.weights, args.actor_only)
     atomic_write(args.out, lambda tmp: torch.save(averaged, tmp))
     print(f"average_checkpoints: wrote {args.out}, the mean of {len(args.checkpoints)} checkpoints "
           f"(iterations {averaged['averaged_from'][0].rsplit('@', 1)[1]} to {averaged['iter']})")
