@@ -9,6 +9,7 @@ from pchc_rsl.evaluation.presets import TASK_EVALUATION, evaluation_preset
 from pchc_rsl.evaluation.report import front_points, front_summary
 from pchc_rsl.evaluation.runs import run_preference_batch, run_return_episodes, switching_run
 from pchc_rsl.evaluation.statistics import aggregate
+from pchc_rsl.utils.files import recorded_path
 
 TOY_STEPS_PER_SECOND = 10
 """The toy has no physical time: an episode length in seconds, and its video, count this many steps per second."""
@@ -116,7 +117,7 @@ def evaluate_checkpoint(path: str, config: dict, preferences, num_envs: int = 64
 def _result(name, path, preferences, metrics, counts, evaluation, roles, presets) -> dict:
     """The result of the presets run so far: rows per preference and the Pareto summary."""
     rows = [{"preference": list(lam), "metrics": metrics[lam], "episodes": counts[lam]} for lam in preferences]
-    result = {"name": name, "checkpoint": os.path.abspath(path), "rows": rows,
+    result = {"name": name, "checkpoint": recorded_path(path), "rows": rows,
               "push_presets": {role: {"preset": preset, "speed_window": evaluation.pushes.get(preset)}
                                for role, preset in zip(roles, presets) if role is not None}}
     result["front"] = front_summary(front_points(rows, evaluation), evaluation)

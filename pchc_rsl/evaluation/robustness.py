@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from pchc_rsl.evaluation.report import _finite_or_null, format_metric
+from pchc_rsl.utils.files import recorded_path
 
 
 @dataclass
@@ -103,7 +104,7 @@ def run_robustness(path: str, config: dict, preferences, conditions: list[Condit
     rows, done = [], []
 
     def report(partial: bool) -> dict:
-        return {"task": config["task"], "checkpoint": os.path.abspath(path),
+        return {"task": config["task"], "checkpoint": recorded_path(path),
                 "objectives": list(config["env"]["objective_names"]),
                 "conditions": [c.name for c in done], "rows": list(rows), "partial": partial}
 

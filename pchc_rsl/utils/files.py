@@ -1,4 +1,4 @@
-"""Writing files a person keeps (checkpoints, exported policies): atomic, with the usual permissions.
+"""Writing files a person keeps (checkpoints, exported policies, results): atomic, with the usual permissions.
 
 A temp file beside the target is renamed over it, so a crash never leaves half a file. The temp file is created by
 the writer itself (not by ``tempfile``, which makes 0600 files), so the result gets the mode the umask gives every
@@ -24,3 +24,11 @@ def atomic_write(path: str, write: Callable[[str], object]) -> str:
         if os.path.exists(tmp_path):
             os.remove(tmp_path)
     return path
+
+
+def recorded_path(path: str) -> str:
+    """``path`` as a results file records it: relative to the working directory when the file lies under it (results
+    committed beside the policy they measure stay true in every checkout), absolute otherwise."""
+    absolute = os.path.abspath(path)
+    relative = os.path.relpath(absolute)
+    return absolute if relative == os.pardir or relative.startswith(os.pardir + os.sep) else relative
