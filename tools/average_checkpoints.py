@@ -55,6 +55,7 @@ def average_state_dicts(dicts: list[dict], names: list[str], weights: list[float
 
 
 def mean_of(tensors: list[torch.Tensor], weights: torch.Tensor) -> torch.Tensor:
+    """The sum of ``tensors`` times ``weights`` (one per tensor, summing to 1)."""
     stacked = torch.stack(tensors)
     return (weights.to(stacked.dtype).view(-1, *([1] * (stacked.dim() - 1))) * stacked).sum(0)
 
@@ -107,7 +108,8 @@ def main(argv: list[str] | None = None) -> str:
     args = parser.parse_args(argv)
     averaged = average_checkpoints(args.checkpoints, args.weights, args.actor_only)
     atomic_write(args.out, lambda tmp: torch.save(averaged, tmp))
-    print(f"average_checkpoints: wrote {args.out}, the mean of {len(args.checkpoints)} checkpoints "
+    mean = "the weighted mean" if args.weights else "the mean"
+    print(f"average_checkpoints: wrote {args.out}, {mean} of {len(args.checkpoints)} checkpoints "
           f"(iterations {averaged['averaged_from'][0].rsplit('@', 1)[1]} to {averaged['iter']})")
     return args.out
 
