@@ -21,6 +21,19 @@ def test_release_keeps_the_networks_and_drops_the_training_state():
     assert torch.equal(released["actor_state_dict"]["w"], saved["actor_state_dict"]["w"])
 
 
+def test_a_release_names_files_without_the_folders_of_the_machine_it_was_trained_on():
+    config = {"task": "x", "resumed_from": "/home/me/runs/walk-b/model_520.pt",
+              "runner": {"algorithm": {"amp_cfg": {"motion_files": ["/data/motions/g1/walk.csv", "clips/run.npz"]}}},
+              "overrides": ['runner.algorithm.amp_cfg.motion_files=["/data/motions/g1/walk.csv"]', "seed=3"],
+              "num_envs": 1024}
+    released = release_checkpoint({"actor_state_dict": {}, "config": config, "iter": 1})
+    assert released["config"] == {
+        "task": "x", "resumed_from": "model_520.pt",
+        "runner": {"algorithm": {"amp_cfg": {"motion_files": ["walk.csv", "clips/run.npz"]}}},
+        "overrides": ['runner.algorithm.amp_cfg.motion_files=["walk.csv"]', "seed=3"], "num_envs": 1024}
+    assert config["resumed_from"] == "/home/me/runs/walk-b/model_520.pt"  # the run's own checkpoint is untouched
+
+
 def test_shipped_toy_policy_evaluates_and_resumes(tmp_path):
     train_cli.main(["--task", "toy", "--max-iterations", "2", "--log-dir", str(tmp_path / "run")])
     original = tmp_path / "run" / "model_1.pt"
@@ -126,3 +139,15 @@ def test_init_from_a_toy_checkpoint_starts_a_new_run_from_its_weights(tmp_path):
         return sum(float((actors[a][k] - actors[b][k]).pow(2).sum()) for k in keys) ** 0.5
 
     assert distance("new", "run") < 0.2 * distance("fresh", "run")
+
+
+def test_resuming_a_release_asks_for_the_clips_it_names_by_file_name(tmp_path, monkeypatch):
+    """Before a run folder is made: one line naming the clip and the flag that gives it."""
+    saved = torch.load(os.path.join(os.path.dirname(__file__), "..", "policies", "g1_walk.pt"), weights_only=True)
+    released = tmp_path / "walker.pt"
+    torch.save(release_checkpoint(saved), released)
+    monkeypatch.chdir(tmp_path)  # where no clip of that name lies
+    with pytest.raises(SystemExit, match=r"names the motion clip \S+\.csv, which is not here; give the clips with "
+                                         r"--motion-files\."):
+        train_cli.main(["--resume", str(released), "--max-iterations", "1", "--log-dir", str(tmp_path / "more")])
+    assert not (tmp_path / "more").exists()

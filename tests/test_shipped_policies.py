@@ -24,7 +24,7 @@ def shipped(name: str) -> str:
 def test_shipped_files_are_small_and_the_onnx_is_the_same_policy(name):
     from pchc_rsl.export.onnx_export import check_onnx_against_torch
     from pchc_rsl.runners import load_checkpoint
-    from pchc_rsl.training.build import make_runner, restore_config, saved_config
+    from pchc_rsl.training.build import for_running, make_runner, restore_config, saved_config
 
     pt = shipped(name)
     onnx = os.path.join(POLICIES, f"{name}.onnx")
@@ -32,7 +32,7 @@ def test_shipped_files_are_small_and_the_onnx_is_the_same_policy(name):
         assert os.path.getsize(path) < MAX_MB * 2**20
     saved = load_checkpoint(pt)
     assert "optimizer_state_dict" not in saved
-    cfg = restore_config(saved_config(pt, saved))
+    cfg = for_running(restore_config(saved_config(pt, saved)))
     cfg.num_envs, cfg.device = 1, "cpu"
     runner = make_runner(cfg)
     runner.load(pt)

@@ -176,6 +176,11 @@ def resolve(args) -> tuple:
     amp = cfg.runner.algorithm.amp_cfg
     if amp is not None and not amp.motion_files:
         notes.append("AMP is off: no --motion-files given (see docs/training.md, AMP).")
+    if amp is not None and args.resume and not args.motion_files:
+        missing = [path for path in amp.motion_files if not os.path.exists(path)]
+        if missing:  # a released checkpoint names its clips by file name only
+            raise ValueError(f"{args.resume} names the motion clip {missing[0]}, which is not here; give the "
+                             "clips with --motion-files.")
     config = cfg.to_dict()
     # what differs from the task's defaults (resuming: from the checkpoint's config), as KEY=VALUE
     config["overrides"] = [f"{k}={_show(after[k])}" for k in changed]

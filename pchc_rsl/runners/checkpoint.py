@@ -3,8 +3,12 @@
 from __future__ import annotations
 
 import os
+import re
+from typing import Any
 
 import torch
+
+_ABSOLUTE_PATH = re.compile(r"(?<![\w.:/~])/(?:[^\s\"',\[\]/]+/)+([^\s\"',\[\]/]+)")
 
 
 def load_checkpoint(path: str, map_location: str | None = "cpu") -> dict:
@@ -34,9 +38,11 @@ def release_checkpoint(saved: dict) -> dict:
     progress (the fall-recovery curriculum: assist level and eta's step count), without what only an interrupted run
     needs (optimizer states, the AMP replay buffer, random streams), so that it stays small. pchc-eval, pchc-play
     and pchc-export-onnx read it as any checkpoint; --resume continues it with a fresh optimizer and the curriculum
-    where it was."""
+    where it was (and the motion clips given with --motion-files: its config names files, ``without_folders``)."""
     dropped = {"optimizer_state_dict", "rnd_optimizer_state_dict", "training_state", "infos"}
     released = {key: value for key, value in saved.items() if key not in dropped}
+    if "config" in released:
+        released["config"] = without_folders(released["config"])
     if "amp_state_dict" in released:
         released["amp_state_dict"] = {"discriminator": released["amp_state_dict"]["discriminator"]}
     env_state = (saved.get("training_state") or {}).get("env") or {}
@@ -46,3 +52,16 @@ def release_checkpoint(saved: dict) -> dict:
     if progress:
         released["training_state"] = {"env": progress}
     return released
+
+
+def without_folders(value: Any) -> Any:
+    """``value`` (a config: dicts, lists, strings) with every absolute path in its strings cut to the file's name.
+    A config records the paths its run had (motion clips, the checkpoint it resumed or started from); in a released
+    file those name folders of the machine it was trained on, which mean nothing where it is used."""
+    if isinstance(value, dict):
+        return {key: without_folders(item) for key, item in value.items()}
+    if isinstance(value, (list, tuple)):
+        return type(value)(without_folders(item) for item in value)
+    if isinstance(value, str):
+        return _ABSOLUTE_PATH.sub(r"\1", value)
+    return value
