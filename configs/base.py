@@ -109,8 +109,13 @@ def select_actor(model: ModelConfig, variant: str) -> None:
     if variant not in ACTOR_CLASSES:
         raise ValueError(f"Unknown actor variant '{variant}'. Known: {', '.join(ACTOR_CLASSES)}.")
     model.class_name = ACTOR_CLASSES[variant]
-    accepted = _init_parameters(resolve_callable(model.class_name))
+    accepted = constructor_arguments(model.class_name)
     model.kwargs = {k: v for k, v in model.kwargs.items() if k in accepted}
+
+
+def constructor_arguments(class_name: str) -> set[str]:
+    """The argument names a model class (``module:Class``) accepts."""
+    return _init_parameters(resolve_callable(class_name))
 
 
 def _init_parameters(cls: type) -> set[str]:

@@ -144,3 +144,42 @@ def test_objective_noise_scales_are_checked():
         PCIActor(obs, GROUPS, "actor", 3, distribution_cfg=ours, objective_noise_scales=[1.0])
     with pytest.raises(ValueError, match="scale_std"):
         PCIActor(obs, GROUPS, "actor", 3, distribution_cfg=GAUSSIAN, objective_noise_scales=[1.0, 1.0])
+
+
+def test_trained_experts_alone_change_and_the_other_end_acts_as_before():
+    """Fine-tuning experts 3 and 4 (the (1, 0) side of the lattice) with Adam moves only their weights: the encoder,
+    the other experts, the action noise and the normaliser's statistics stay, so at lambda = (0, 1), routed to
+    expert 0 alone, the actions are the same to the bit."""
+    torch.manual_seed(0)
+    obs = make_obs(n=64)
+    actor = PCIActor(obs, GROUPS, "actor", 3, hidden_dims=[16], history_length=HISTORY, obs_normalization=True,
+                     routing_scale=500.0, distribution_cfg=GAUSSIAN, trained_experts=[3, 4])
+    stride_end = obs.clone()
+    stride_end["preference"] = torch.tensor([[0.0, 1.0]]).expand(64, 2).clone()
+    actor.update_normalization(make_obs(n=64, seed=5))
+    with torch.no_grad():
+        before_actions = actor(stride_end)
+    before = {name: value.clone() for name, value in actor.state_dict().items()}
+    optimizer = torch.optim.Adam(actor.parameters(), lr=1e-2)
+    for step in range(3):
+        actor.update_normalization(make_obs(n=64, seed=10 + step))
+        actions = actor(obs, stochastic_output=True)
+        loss = (actor(obs) - 1.0).pow(2).mean() - actor.get_output_log_prob(actions.detach()).mean()
+        optimizer.zero_grad()
+        loss.backward()
+        optimizer.step()
+    after = actor.state_dict()
+    moved = {name for name in before if not torch.equal(before[name], after[name])}
+    assert moved == {f"mlp.experts.{kind}.{layer}" for kind in ("weights", "biases") for layer in (0, 1)}
+    for layer in (0, 1):
+        change = (after[f"mlp.experts.weights.{layer}"] - before[f"mlp.experts.weights.{layer}"]).flatten(1).abs()
+        assert torch.all(change[:3].amax(1) == 0) and torch.all(change[3:].amax(1) > 0)
+    with torch.no_grad():
+        assert torch.equal(actor(stride_end), before_actions)
+
+
+def test_trained_experts_are_checked():
+    obs = make_obs()
+    for bad in ([], [5], [1, 1], [-1]):
+        with pytest.raises(ValueError, match=r"distinct expert indices in 0\.\.4"):
+            PCIActor(obs, GROUPS, "actor", 3, trained_experts=bad)

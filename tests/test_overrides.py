@@ -83,3 +83,12 @@ def test_show_config_prints_the_resolved_values(capsys):
     train_cli.main(["--task", "toy", "--num-envs", "5", "runner.algorithm.gamma=0.9", "--show-config"])
     out = capsys.readouterr().out
     assert "\nnum_envs = 5  (int)" in out and "\nrunner.algorithm.gamma = 0.9  (float)" in out
+
+
+def test_a_models_kwargs_take_any_argument_its_class_accepts():
+    cfg = task_config("toy")
+    assert "trained_experts" not in cfg.runner.actor.kwargs
+    apply_overrides(cfg, ["runner.actor.kwargs.trained_experts=[3,4]"])
+    assert cfg.runner.actor.kwargs["trained_experts"] == [3, 4]
+    with pytest.raises(OverrideError, match="unknown config key 'runner.actor.kwargs.trained_expert'"):
+        apply_overrides(cfg, ["runner.actor.kwargs.trained_expert=[3]"])

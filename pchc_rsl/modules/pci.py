@@ -274,10 +274,12 @@ class _MixtureActor(PreferenceMLPModel):
         history_latent_dim: int = 32,
         experts_see_preference: bool = True,
         objective_noise_scales: list[float] | None = None,
+        trained_experts: list[int] | None = None,
     ) -> None:
         # The base builds a throwaway MLP of hidden_dims; keep it tiny, the experts get hidden_dims below.
         super().__init__(obs, obs_groups, obs_set, output_dim, [1], activation, obs_normalization,
                          distribution_cfg, preference_group, objective_noise_scales)
+        self.trained_experts = None if trained_experts is None else list(trained_experts)
         self.head_kwargs = dict(
             obs_dim=self.obs_dim,
             history=self._locate_history(obs, history_group, history_length),
@@ -294,6 +296,33 @@ class _MixtureActor(PreferenceMLPModel):
         """[N, E] each expert's weight in the actions for these observations: how the mixture shares out the samples
         its experts train on (PCI: fixed by lambda; gated: whatever the gate learned)."""
         return self.mlp.routing(self.get_latent(obs))
+
+    def update_normalization(self, obs: TensorDict) -> None:
+        if self.trained_experts is None:  # fine-tuning some experts keeps what the others were trained on
+            super().update_normalization(obs)
+
+    def _freeze_all_but_trained_experts(self) -> None:
+        """With ``trained_experts``, train only those experts (indices into the experts, as ``positions`` orders
+        them): every other parameter (the encoder, the other experts, a gate, the action noise) gets no gradient and
+        the observation normaliser keeps its statistics. Fine-tuning the experts at one end of the simplex then leaves
+        the preferences the others serve acting as before, as far as the routing gives the trained ones no weight
+        there. Start such a run with a fresh optimiser (``pchc-train --init-from``): Adam's momentum from a run that
+        trained every expert would go on moving the frozen ones."""
+        if self.trained_experts is None:
+            return
+        num_experts = self.mlp.experts.weights[0].shape[0]
+        chosen = self.trained_experts
+        if not chosen or len(set(chosen)) != len(chosen) or not all(0 <= e < num_experts for e in chosen):
+            raise ValueError(f"trained_experts {chosen}: give distinct expert indices in 0..{num_experts - 1}.")
+        mask = torch.zeros(num_experts)
+        mask[chosen] = 1.0
+        expert_parameters = {id(p) for p in self.mlp.experts.parameters()}
+        for parameter in self.parameters():
+            if id(parameter) in expert_parameters:
+                shape = (num_experts,) + (1,) * (parameter.dim() - 1)
+                parameter.register_hook(lambda grad, m=mask.view(shape): grad * m.to(grad.device))
+            else:
+                parameter.requires_grad_(False)
 
     def _locate_history(self, obs: TensorDict, group: str, history_length: int) -> tuple[int, int, int]:
         """Columns [start, stop) of the history group in the concatenated observation, and H."""
@@ -346,6 +375,7 @@ class PCIActor(_MixtureActor):
         else:
             positions = simplex_lattice(m, lattice_resolution)
         self.mlp = PCIHead(positions, alpha0, beta0, routing_scale, **self.head_kwargs)
+        self._freeze_all_but_trained_experts()
 
     def expert_weights(self, obs: TensorDict) -> torch.Tensor:
         """[N, E]: PCI's weights depend on lambda alone, so the observation is not encoded."""
@@ -368,3 +398,4 @@ class GatedMoEActor(_MixtureActor):
     ) -> None:
         super().__init__(obs, obs_groups, obs_set, output_dim, **kwargs)
         self.mlp = GatedHead(list(gate_hidden_dims), num_experts=num_experts, **self.head_kwargs)
+        self._freeze_all_but_trained_experts()

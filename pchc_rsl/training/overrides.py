@@ -4,8 +4,9 @@ Keys follow the config's structure (``runner.algorithm.learning_rate``, ``env.pu
 ``runner.actor.hidden_dims``); an element of a list of dataclasses is named by its index or its name
 (``env.rewards.feet_slip.weight``, the reward term's function name). Values are parsed against the field's type
 hint: ``1e-3`` for a float, ``128,64`` or ``[128, 64]`` for a list, ``none`` for an optional field,
-``{"a": 1}`` (JSON or a Python literal) for a dict. Unknown keys and wrong types fail with one line that names the
-closest valid key.
+``{"a": 1}`` (JSON or a Python literal) for a dict. A model's ``kwargs`` also take an argument its class accepts
+that the config does not name yet (``runner.actor.kwargs.trained_experts=[3,4]``). Unknown keys and wrong types fail
+with one line that names the closest valid key.
 """
 
 from __future__ import annotations
@@ -49,6 +50,11 @@ def set_value(cfg: Any, key: str, text: str) -> Any:
     fields = config_fields(cfg)
     if key in READ_ONLY:
         raise OverrideError(f"'{key}' cannot be overridden: {READ_ONLY[key]}.")
+    if key not in fields and _class_argument(fields, key):
+        parent_key, _, name = key.rpartition(".")
+        value = coerce(text, Any, None, key)
+        fields[parent_key][3][name] = value
+        return value
     if key not in fields:
         groups = {k.rsplit(".", 1)[0] for k in fields if "." in k}
         if key in groups:
@@ -64,6 +70,20 @@ def set_value(cfg: Any, key: str, text: str) -> Any:
     else:
         setattr(parent, name, value)
     return value
+
+
+def _class_argument(fields: dict, key: str) -> bool:
+    """Whether ``key`` names an argument of a model's class inside that model's ``kwargs`` dict."""
+    parent_key, _, name = key.rpartition(".")
+    if not parent_key.endswith(".kwargs") or parent_key not in fields:
+        return False
+    model = fields[parent_key][0]
+    class_name = getattr(model, "class_name", None)
+    if not isinstance(class_name, str) or not isinstance(fields[parent_key][3], dict):
+        return False
+    from pchc_rsl.configs.base import constructor_arguments
+
+    return name in constructor_arguments(class_name)
 
 
 def config_fields(cfg: Any, aliases: bool = True) -> dict[str, tuple[Any, Any, Any, Any]]:
