@@ -38,7 +38,8 @@ def release_checkpoint(saved: dict) -> dict:
     progress (the fall-recovery curriculum: assist level and eta's step count), without what only an interrupted run
     needs (optimizer states, the AMP replay buffer, random streams), so that it stays small. pchc-eval, pchc-play
     and pchc-export-onnx read it as any checkpoint; --resume continues it with a fresh optimizer and the curriculum
-    where it was (and the motion clips given with --motion-files: its config names files, ``without_folders``)."""
+    where it was. Its config names files without their folders (``without_folders``), so --resume takes the motion
+    clips from --motion-files."""
     dropped = {"optimizer_state_dict", "rnd_optimizer_state_dict", "training_state", "infos"}
     released = {key: value for key, value in saved.items() if key not in dropped}
     if "config" in released:
