@@ -316,11 +316,13 @@ class _MixtureActor(PreferenceMLPModel):
             raise ValueError(f"trained_experts {chosen}: give distinct expert indices in 0..{num_experts - 1}.")
         mask = torch.zeros(num_experts)
         mask[chosen] = 1.0
+        # a buffer, so that it moves with the actor and the gradient hooks never copy it to the device
+        self.register_buffer("trained_expert_mask", mask, persistent=False)
         expert_parameters = {id(p) for p in self.mlp.experts.parameters()}
         for parameter in self.parameters():
             if id(parameter) in expert_parameters:
                 shape = (num_experts,) + (1,) * (parameter.dim() - 1)
-                parameter.register_hook(lambda grad, m=mask.view(shape): grad * m.to(grad.device))
+                parameter.register_hook(lambda grad, shape=shape: grad * self.trained_expert_mask.view(shape))
             else:
                 parameter.requires_grad_(False)
 
