@@ -50,10 +50,9 @@ def set_value(cfg: Any, key: str, text: str) -> Any:
     fields = config_fields(cfg)
     if key in READ_ONLY:
         raise OverrideError(f"'{key}' cannot be overridden: {READ_ONLY[key]}.")
-    if key not in fields and _class_argument(fields, key):
-        parent_key, _, name = key.rpartition(".")
+    if key not in fields and (kwargs := _kwargs_taking(fields, key)) is not None:
         value = coerce(text, Any, None, key)
-        fields[parent_key][3][name] = value
+        kwargs[key.rpartition(".")[2]] = value
         return value
     if key not in fields:
         groups = {k.rsplit(".", 1)[0] for k in fields if "." in k}
@@ -72,18 +71,18 @@ def set_value(cfg: Any, key: str, text: str) -> Any:
     return value
 
 
-def _class_argument(fields: dict, key: str) -> bool:
-    """Whether ``key`` names an argument of a model's class inside that model's ``kwargs`` dict."""
+def _kwargs_taking(fields: dict, key: str) -> dict | None:
+    """The ``kwargs`` dict of a model config when ``key`` names an argument of that model's class inside it."""
     parent_key, _, name = key.rpartition(".")
     if not parent_key.endswith(".kwargs") or parent_key not in fields:
-        return False
-    model = fields[parent_key][0]
+        return None
+    model, _, _, kwargs = fields[parent_key]
     class_name = getattr(model, "class_name", None)
-    if not isinstance(class_name, str) or not isinstance(fields[parent_key][3], dict):
-        return False
+    if not isinstance(class_name, str) or not isinstance(kwargs, dict):
+        return None
     from pchc_rsl.configs.base import constructor_arguments
 
-    return name in constructor_arguments(class_name)
+    return kwargs if name in constructor_arguments(class_name) else None
 
 
 def config_fields(cfg: Any, aliases: bool = True) -> dict[str, tuple[Any, Any, Any, Any]]:
