@@ -22,7 +22,7 @@ def test_release_keeps_the_networks_and_drops_the_training_state():
 
 
 def test_a_release_names_files_without_the_folders_of_the_machine_it_was_trained_on():
-    config = {"task": "x", "resumed_from": "/home/me/runs/walk-b/model_520.pt",
+    config = {"task": "x", "resumed_from": "/home/me/runs/g1/model_520.pt",
               "runner": {"algorithm": {"amp_cfg": {"motion_files": ["/data/motions/g1/walk.csv", "clips/run.npz"]}}},
               "overrides": ['runner.algorithm.amp_cfg.motion_files=["/data/motions/g1/walk.csv"]', "seed=3"],
               "num_envs": 1024}
@@ -31,7 +31,7 @@ def test_a_release_names_files_without_the_folders_of_the_machine_it_was_trained
         "task": "x", "resumed_from": "model_520.pt",
         "runner": {"algorithm": {"amp_cfg": {"motion_files": ["walk.csv", "clips/run.npz"]}}},
         "overrides": ['runner.algorithm.amp_cfg.motion_files=["walk.csv"]', "seed=3"], "num_envs": 1024}
-    assert config["resumed_from"] == "/home/me/runs/walk-b/model_520.pt"  # the run's own checkpoint is untouched
+    assert config["resumed_from"] == "/home/me/runs/g1/model_520.pt"  # the run's own checkpoint is untouched
 
 
 def test_shipped_toy_policy_evaluates_and_resumes(tmp_path):
