@@ -64,6 +64,15 @@ def test_a_checkpoint_runs_where_its_motion_clips_are_not(tmp_path):
     assert os.path.getsize(export_checkpoint(checkpoint, str(tmp_path / "policy.onnx"))) > 0
 
 
+def test_running_config_leaves_the_training_config_its_discriminator():
+    from pchc_rsl.training.build import for_running
+
+    cfg = task_config("g1-walk-fast")
+    running = for_running(cfg)
+    assert running.runner.algorithm.amp_cfg is None
+    assert cfg.runner.algorithm.amp_cfg is not None and cfg.runner.algorithm.amp_cfg.motion_files is not None
+
+
 def test_training_without_motions_says_amp_is_off(tmp_path, capsys):
     from pchc_rsl.cli import train
 

@@ -4,6 +4,7 @@ the evaluation, the tools and the tests build them."""
 from __future__ import annotations
 
 import contextlib
+import copy
 import glob
 import io
 import json
@@ -87,7 +88,8 @@ def placed(cfg: TaskConfig, device: str) -> TaskConfig:
 def for_running(cfg: TaskConfig) -> TaskConfig:
     """``cfg`` for running a trained policy (evaluating, playing, exporting): without the AMP discriminator, which
     only training uses. A checkpoint names its motion clips by the paths they had where it was trained; without this
-    it could not be run anywhere else."""
+    it could not be run anywhere else. A copy: the caller's ``cfg`` keeps its discriminator."""
+    cfg = copy.deepcopy(cfg)
     cfg.runner.algorithm.amp_cfg = None
     return cfg
 
