@@ -1,3 +1,5 @@
+import copy
+
 import numpy as np
 import pytest
 import scipy.stats
@@ -176,6 +178,20 @@ def test_trained_experts_alone_change_and_the_other_end_acts_as_before():
         assert torch.all(change[:3].amax(1) == 0) and torch.all(change[3:].amax(1) > 0)
     with torch.no_grad():
         assert torch.equal(actor(stride_end), before_actions)
+
+
+def test_a_copy_of_an_actor_trains_only_its_trained_experts():
+    """A deep copy (an EMA or teacher copy, a copy moved to another device) keeps the frozen experts frozen, with its
+    own mask: the original's mask changed afterwards does not reach it."""
+    obs = make_obs(n=8)
+    actor = PCIActor(obs, GROUPS, "actor", 3, hidden_dims=[16], history_length=HISTORY, trained_experts=[1])
+    copied = copy.deepcopy(actor)
+    actor.trained_expert_mask.zero_()
+    copied(obs).pow(2).sum().backward()
+    for parameter in copied.mlp.experts.parameters():
+        per_expert = parameter.grad.flatten(1).abs().amax(1)
+        assert per_expert[1] > 0 and torch.all(per_expert[[0, 2, 3, 4]] == 0)
+    assert all(p.grad is None for p in copied.mlp.encoder.parameters())
 
 
 def test_trained_experts_are_checked():

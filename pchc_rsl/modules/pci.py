@@ -320,11 +320,25 @@ class _MixtureActor(PreferenceMLPModel):
         self.register_buffer("trained_expert_mask", mask, persistent=False)
         expert_parameters = {id(p) for p in self.mlp.experts.parameters()}
         for parameter in self.parameters():
-            if id(parameter) in expert_parameters:
-                shape = (num_experts,) + (1,) * (parameter.dim() - 1)
-                parameter.register_hook(lambda grad, shape=shape: grad * self.trained_expert_mask.view(shape))
-            else:
+            if id(parameter) not in expert_parameters:
                 parameter.requires_grad_(False)
+        self._mask_untrained_expert_gradients()
+
+    def _mask_untrained_expert_gradients(self) -> None:
+        """Zero the untrained experts' slices of every batched expert tensor's gradient, with this actor's mask."""
+        for parameter in self.mlp.experts.parameters():
+            shape = (-1,) + (1,) * (parameter.dim() - 1)
+            parameter.register_hook(lambda grad, shape=shape: grad * self.trained_expert_mask.view(shape))
+
+    def __deepcopy__(self, memo: dict) -> _MixtureActor:
+        """A copy masks its own gradients: a deep copy of a parameter drops its hooks, and would train every
+        expert."""
+        copied = self.__class__.__new__(self.__class__)
+        memo[id(self)] = copied
+        copied.__dict__.update(copy.deepcopy(self.__dict__, memo))
+        if copied.trained_experts is not None:
+            copied._mask_untrained_expert_gradients()
+        return copied
 
     def _locate_history(self, obs: TensorDict, group: str, history_length: int) -> tuple[int, int, int]:
         """Columns [start, stop) of the history group in the concatenated observation, and H."""
