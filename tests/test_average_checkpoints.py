@@ -76,3 +76,33 @@ def test_weights_interpolate_and_actor_only_keeps_the_newest_critics(two_checkpo
     for bad, message in ((["1"], "one weight per checkpoint"), (["1", "-1"], ">= 0"), (["0", "0"], ">= 0")):
         with pytest.raises(ValueError, match=message):
             tool.main([new, old, "--weights", *bad, "--out", str(root / "x.pt")])
+
+
+def test_expert_weights_move_each_expert_by_its_own_share(two_checkpoints):
+    """Given newest first: each expert is (1 - share) x the first + share x the second, the rest of the actor takes
+    --weights, the critics are the newest's."""
+    root, old, new = two_checkpoints
+    a, b = torch.load(new, weights_only=True), torch.load(old, weights_only=True)
+    experts = a["actor_state_dict"]["mlp.experts.weights.0"].shape[0]
+    shares = [i / (experts - 1) for i in range(experts)]
+    tool = load_tool("average_checkpoints")
+    out = tool.main([new, old, "--weights", "1", "0", "--expert-weights", *map(str, shares), "--out",
+                     str(root / "e.pt")])
+    mixed = torch.load(out, weights_only=True)
+    moved = 0
+    for name, tensor in a["actor_state_dict"].items():
+        if name.startswith("mlp.experts."):
+            for expert, share in enumerate(shares):
+                expected = (1 - share) * tensor[expert] + share * b["actor_state_dict"][name][expert]
+                assert torch.allclose(mixed["actor_state_dict"][name][expert], expected, atol=1e-7), (name, expert)
+            moved += not torch.equal(tensor, b["actor_state_dict"][name])
+        elif tensor.is_floating_point():
+            assert torch.allclose(mixed["actor_state_dict"][name], tensor), name
+    assert moved  # training moved the experts, so the shares are seen
+    for name, tensor in a["critic_state_dict"].items():
+        assert torch.equal(mixed["critic_state_dict"][name], tensor), name
+    for bad, message in ((shares[:-1], "one share in"), ([2.0] * experts, "one share in")):
+        with pytest.raises(ValueError, match=message):
+            tool.main([new, old, "--expert-weights", *map(str, bad), "--out", str(root / "x.pt")])
+    with pytest.raises(ValueError, match="two checkpoints"):
+        tool.main([new, old, old, "--expert-weights", *map(str, shares), "--out", str(root / "x.pt")])

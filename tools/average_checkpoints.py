@@ -2,11 +2,13 @@
 
     python tools/average_checkpoints.py RUN/model_{350,400,450,500,550}.pt --out avg.pt
     python tools/average_checkpoints.py A.pt B.pt --weights 0.4 0.6 --actor-only --out mix.pt  # 0.6 of the way to B
+    python tools/average_checkpoints.py A.pt B.pt --weights 1 0 --expert-weights 0 0.25 0.5 0.75 1 --out mix.pt
 
 Why: late in a run PPO keeps moving the policy, and consecutive checkpoints 50 iterations apart differ by more than
 a table's intervals at the ends of the preference range (docs/design.md, "Checkpoint averaging"). The mean of the
-actor's (and critics') parameters over a stretch of checkpoints cancels much of that noise. Only checkpoints of one lineage make sense here: averaging works for nearby points of
-one training trajectory, not for independently trained networks.
+actor's (and critics') parameters over a stretch of checkpoints cancels much of that noise. Only checkpoints of one
+lineage make sense here: averaging works for nearby points of one training trajectory, not for independently trained
+networks.
 
 Floating-point tensors of the actor and critic (weights and observation normalisers) and the value normaliser the
 critics predict in are averaged; a normaliser's std is then recomputed as sqrt(var) of its averaged variance (the
@@ -19,6 +21,12 @@ averaged from under ``averaged_from`` (run folder, file and iteration of each).
 as WiSE-FT interpolates a fine-tuned network with the one it started from). ``--actor-only`` averages the actor and
 takes the critics from the newest checkpoint, for checkpoints whose critics differ in shape (``--init-from`` widens
 the critics of a policy trained without ``critic_command_state``); evaluating and playing use the actor alone.
+
+``--expert-weights`` (two checkpoints of a mixture actor: PCI or the gated ablation) mixes expert by expert: each
+number is the second checkpoint's share in one expert, in the order of the actor's ``mlp.positions`` (printed); the
+rest of the actor (encoder, normaliser, noise) takes ``--weights``, and the critics are the newest checkpoint's (as
+with ``--actor-only``). Experts that serve different preferences can then be moved by different amounts, as the
+walker's experiments in docs/design.md ("Checkpoint averaging") do.
 """
 
 from __future__ import annotations
@@ -32,11 +40,14 @@ from pchc_rsl.runners.checkpoint import load_checkpoint
 from pchc_rsl.utils.files import atomic_write
 
 AVERAGED = ("actor_state_dict", "critic_state_dict", "value_normalizer_state_dict")
+EXPERTS = "mlp.experts."
+"""The prefix of a mixture actor's batched expert tensors, [expert, ...] each."""
 
 
-def average_state_dicts(dicts: list[dict], names: list[str], weights: list[float] | None = None) -> dict:
+def average_state_dicts(dicts: list[dict], names: list[str], weights: list[float] | None = None,
+                        expert_weights: torch.Tensor | None = None) -> dict:
     """(Weighted) mean of each floating-point tensor; other entries (sample counts) from the last. Keys and shapes
-    must match."""
+    must match. ``expert_weights`` [checkpoint, expert] weighs the expert tensors expert by expert."""
     first = dicts[0]
     for state, name in zip(dicts[1:], names[1:]):
         if state.keys() != first.keys():
@@ -48,6 +59,10 @@ def average_state_dicts(dicts: list[dict], names: list[str], weights: list[float
     w = torch.full((len(dicts),), 1.0 / len(dicts)) if weights is None else torch.tensor(weights)
     averaged = {key: mean_of([d[key] for d in dicts], w) if value.is_floating_point() else dicts[-1][key]
                 for key, value in dicts[-1].items()}
+    if expert_weights is not None:
+        for key in averaged:
+            if key.startswith(EXPERTS) and averaged[key].is_floating_point():
+                averaged[key] = mean_of([d[key] for d in dicts], expert_weights)
     for key in averaged:  # rsl-rl's EmpiricalNormalization keeps _var and _std = sqrt(_var) side by side
         if key.endswith("_std") and key[: -len("_std")] + "_var" in averaged:
             averaged[key] = averaged[key[: -len("_std")] + "_var"].sqrt()
@@ -55,9 +70,10 @@ def average_state_dicts(dicts: list[dict], names: list[str], weights: list[float
 
 
 def mean_of(tensors: list[torch.Tensor], weights: torch.Tensor) -> torch.Tensor:
-    """The sum of ``tensors`` times ``weights`` (one per tensor, summing to 1)."""
+    """The sum of ``tensors`` times ``weights``: one per tensor, summing to 1, or [tensor, expert] for tensors whose
+    first dimension is the expert."""
     stacked = torch.stack(tensors)
-    return (weights.to(stacked.dtype).view(-1, *([1] * (stacked.dim() - 1))) * stacked).sum(0)
+    return (weights.to(stacked.dtype).view(*weights.shape, *([1] * (stacked.dim() - weights.dim()))) * stacked).sum(0)
 
 
 def run_and_file(path: str) -> str:
@@ -76,24 +92,45 @@ def checked_weights(weights: list[float] | None, count: int) -> list[float] | No
     return [w / sum(weights) for w in weights]
 
 
-def average_checkpoints(paths: list[str], weights: list[float] | None = None, actor_only: bool = False) -> dict:
+def expert_shares(saved: dict, paths: list[str], shares: list[float]) -> torch.Tensor:
+    """[checkpoint, expert] weights for two checkpoints, ``shares`` being the second's share in each expert;
+    ValueError unless the actor has experts, one share each, in [0, 1]."""
+    if len(paths) != 2:
+        raise ValueError(f"--expert-weights mixes two checkpoints, not {len(paths)}.")
+    experts = [t for k, t in saved["actor_state_dict"].items() if k.startswith(EXPERTS)]
+    if not experts:
+        raise ValueError(f"{paths[0]}'s actor has no experts ({EXPERTS}*): --expert-weights is for mixture actors.")
+    if len(shares) != experts[0].shape[0] or not all(0 <= w <= 1 for w in shares):
+        raise ValueError(f"Give one share in [0, 1] per expert: {len(shares)} for {experts[0].shape[0]} experts "
+                         f"(got {shares}).")
+    second = torch.tensor(shares, dtype=torch.float64)
+    return torch.stack([1 - second, second])
+
+
+def average_checkpoints(paths: list[str], weights: list[float] | None = None, actor_only: bool = False,
+                        expert_weights: list[float] | None = None) -> dict:
     if len(paths) < 2:
         raise ValueError("Give at least two checkpoints to average.")
     weights = checked_weights(weights, len(paths))
     saved = [load_checkpoint(path) for path in paths]
+    per_expert = None if expert_weights is None else expert_shares(saved[0], paths, expert_weights)
     order = sorted(range(len(paths)), key=lambda i: saved[i].get("iter", 0))
     saved, paths = [saved[i] for i in order], [paths[i] for i in order]
     weights = None if weights is None else [weights[i] for i in order]
+    per_expert = None if per_expert is None else per_expert[order]
+    actor_only = actor_only or per_expert is not None
     tasks = {s.get("config", {}).get("task") for s in saved}
     if len(tasks) != 1:
         raise ValueError(f"The checkpoints come from different tasks ({', '.join(sorted(map(str, tasks)))}).")
     averaged = {key: value for key, value in saved[-1].items() if key != "optimizer_state_dict"}
     for key in AVERAGED[:1] if actor_only else AVERAGED:
         if all(key in s for s in saved):
-            averaged[key] = average_state_dicts([s[key] for s in saved], paths, weights)
+            averaged[key] = average_state_dicts([s[key] for s in saved], paths, weights, per_expert)
     averaged["averaged_from"] = [f"{run_and_file(path)}@{s.get('iter')}" for path, s in zip(paths, saved)]
     if weights is not None:
         averaged["averaged_weights"] = weights
+    if per_expert is not None:
+        averaged["averaged_expert_weights"] = per_expert.tolist()
     return averaged
 
 
@@ -105,12 +142,18 @@ def main(argv: list[str] | None = None) -> str:
                         "(scaled to sum to 1; default: equal)")
     parser.add_argument("--actor-only", action="store_true", help="average the actor only; the critics are the "
                         "newest checkpoint's")
+    parser.add_argument("--expert-weights", type=float, nargs="+", help="two checkpoints of a mixture actor: the "
+                        "second one's share in each expert, in the order of mlp.positions (implies --actor-only)")
     args = parser.parse_args(argv)
-    averaged = average_checkpoints(args.checkpoints, args.weights, args.actor_only)
+    averaged = average_checkpoints(args.checkpoints, args.weights, args.actor_only, args.expert_weights)
     atomic_write(args.out, lambda tmp: torch.save(averaged, tmp))
     mean = "the weighted mean" if args.weights else "the mean"
     print(f"average_checkpoints: wrote {args.out}, {mean} of {len(args.checkpoints)} checkpoints "
           f"(iterations {averaged['averaged_from'][0].rsplit('@', 1)[1]} to {averaged['iter']})")
+    if args.expert_weights:
+        positions = averaged["actor_state_dict"].get("mlp.positions")
+        for share, position in zip(args.expert_weights, [] if positions is None else positions.tolist()):
+            print(f"  expert at lambda = ({', '.join(f'{x:g}' for x in position)}): {share:g} of {args.checkpoints[1]}")
     return args.out
 
 
