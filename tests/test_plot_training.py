@@ -38,3 +38,14 @@ def test_curves_continue_steps_and_clock_across_a_resume(tmp_path):
     np.testing.assert_allclose(hours, [0.1 * (i + 1) for i in range(6)] + [0.6 + 0.2, 0.6 + 0.4])
     with pytest.raises(SystemExit, match="labels"):
         load_tool("plot_training").main([str(tmp_path / "a"), "--labels", "x", "y"])
+
+
+def test_iterations_a_resumed_folder_redid_are_counted_once(tmp_path):
+    """a logged iterations 0-9, but b was resumed from a's model_7.pt: a's 8 and 9 are not in b's lineage."""
+    fake_run(tmp_path / "a", range(0, 10), 360.0)
+    fake_run(tmp_path / "b", range(8, 12), 720.0)
+    steps, hours, values = load_tool("plot_training").run_curves(f"{tmp_path / 'a'}+{tmp_path / 'b'}",
+                                                                 "Train/mean_reward")
+    assert list(values) == list(range(12))
+    assert list(steps) == [40 * (i + 1) for i in range(12)]
+    np.testing.assert_allclose(hours, [0.1 * (i + 1) for i in range(8)] + [0.8 + 0.2 * (i + 1) for i in range(4)])

@@ -7,7 +7,10 @@ The question a change to the training loop must answer is whether it learns fast
 tag gets two panels, value against env steps and value against wall-clock hours. A resumed run is read from all its
 folders in order (give them joined by '+': logs/run-a+logs/run-a-more), its clock and steps continuing;
 'folder@N' keeps that folder's iterations up to N (a branch resumed from its model_N.pt while the folder's own run
-went on). Prints, per run and tag, the last value (mean of the last 5 points), the env steps and the hours it took.
+went on). Without '@', a folder's iterations that the next folder logs again (it was resumed from an earlier
+checkpoint of this one) are counted once, as the next folder's; a next folder that starts at iteration 0 (trained
+with --init-from) follows all of this one. Prints, per run and tag, the last value (mean of the last 5 points), the
+env steps and the hours it took.
 """
 
 from __future__ import annotations
@@ -47,11 +50,14 @@ def run_curves(spec: str, tag: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]
     steps and clock."""
     all_steps, all_hours, all_values = [], [], []
     steps_done, hours_done = 0, 0.0
-    for part in spec.split("+"):
-        folder, _, until = part.partition("@")
+    parts = [part.partition("@")[::2] for part in spec.split("+")]
+    timed = [read_scalars(folder, "Perf/collection_time") for folder, _ in parts]
+    for index, ((folder, until), (its, seconds)) in enumerate(zip(parts, timed)):
         iterations, values = read_scalars(folder, tag)
-        its, seconds = read_scalars(folder, "Perf/collection_time")
         _, learning = read_scalars(folder, "Perf/learning_time")
+        following = timed[index + 1][0] if index + 1 < len(timed) else []
+        if not until and len(following) and len(its) and 0 < following[0] <= its[-1]:
+            until = following[0] - 1  # resumed from an earlier checkpoint, the next folder redid these iterations
         if until:
             last = int(until)
             iterations, values = iterations[iterations <= last], values[iterations <= last]
