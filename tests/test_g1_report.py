@@ -236,3 +236,10 @@ def test_steerable_walker_targets_from_each_foot_the_heading_and_the_steering_co
     assert not status["told to stand: falls <= 2% at every preference"]
     text = open(path).read()
     assert "swing 1.03, 1.03, 1.03, 1.03, 1.25" in text and "(1.60x)" in text
+
+
+def test_a_recorded_checkpoint_that_is_not_here_is_named(tmp_path, monkeypatch, capsys):
+    """pchc-eval records a checkpoint relative to where it ran; from elsewhere the report says why steps are missing."""
+    monkeypatch.chdir(tmp_path)
+    assert g1_report.env_steps("policies/g1_walk.pt") is None
+    assert "policies/g1_walk.pt is not here" in capsys.readouterr().err

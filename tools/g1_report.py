@@ -325,7 +325,11 @@ def env_steps(checkpoint: str) -> int | None:
     """Env steps behind a checkpoint: (iterations done) x envs x steps per env; None if the file is gone, or if
     its run, or a run it was resumed from, started with ``--init-from``: such a run counts its iterations from 0,
     so they say nothing of the steps before it."""
-    if not checkpoint or not os.path.exists(checkpoint):
+    if not checkpoint:
+        return None
+    if not os.path.exists(checkpoint):
+        print(f"g1_report: {checkpoint} is not here, so its env steps are left out (pchc-eval records a checkpoint "
+              "relative to the folder it ran in: run this from there).", file=sys.stderr)
         return None
     import torch
 
