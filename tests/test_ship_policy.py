@@ -34,6 +34,14 @@ def test_a_release_names_files_without_the_folders_of_the_machine_it_was_trained
     assert config["resumed_from"] == "/home/me/runs/g1/model_520.pt"  # the run's own checkpoint is untouched
 
 
+def test_a_release_trains_its_whole_actor_when_resumed():
+    kwargs = {"routing_scale": 3.0, "trained_experts": [1, 2, 3]}
+    config = {"task": "x", "runner": {"actor": {"kwargs": kwargs}}}
+    released = release_checkpoint({"actor_state_dict": {}, "config": config, "iter": 1})
+    assert released["config"]["runner"]["actor"]["kwargs"] == {"routing_scale": 3.0}
+    assert kwargs["trained_experts"] == [1, 2, 3]  # the run's own checkpoint is untouched
+
+
 def test_shipped_toy_policy_evaluates_and_resumes(tmp_path):
     train_cli.main(["--task", "toy", "--max-iterations", "2", "--log-dir", str(tmp_path / "run")])
     original = tmp_path / "run" / "model_1.pt"

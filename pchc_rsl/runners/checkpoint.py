@@ -39,11 +39,15 @@ def release_checkpoint(saved: dict) -> dict:
     needs (optimizer states, the AMP replay buffer, random streams), so that it stays small. pchc-eval, pchc-play
     and pchc-export-onnx read it as any checkpoint; --resume continues it with a fresh optimizer and the curriculum
     where it was. Its config names files without their folders (``without_folders``), so --resume takes the motion
-    clips from --motion-files."""
+    clips from --motion-files, and it does not keep the actor's ``trained_experts``: which experts the last stage
+    fine-tuned belongs to that stage, and a resumed release trains its whole actor, as ``--init-from`` does."""
     dropped = {"optimizer_state_dict", "rnd_optimizer_state_dict", "training_state", "infos"}
     released = {key: value for key, value in saved.items() if key not in dropped}
     if "config" in released:
         released["config"] = without_folders(released["config"])
+        actor_kwargs = released["config"].get("runner", {}).get("actor", {}).get("kwargs")
+        if actor_kwargs and "trained_experts" in actor_kwargs:
+            actor_kwargs.pop("trained_experts")
     if "amp_state_dict" in released:
         released["amp_state_dict"] = {"discriminator": released["amp_state_dict"]["discriminator"]}
     env_state = (saved.get("training_state") or {}).get("env") or {}
