@@ -57,7 +57,7 @@ def run_curves(spec: str, tag: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]
         _, learning = read_scalars(folder, "Perf/learning_time")
         following = timed[index + 1][0] if index + 1 < len(timed) else []
         if not until and len(following) and len(its) and 0 < following[0] <= its[-1]:
-            until = following[0] - 1  # resumed from an earlier checkpoint, the next folder redid these iterations
+            until = str(following[0] - 1)  # resumed from an earlier checkpoint, the next folder redid these iterations
         if until:
             last = int(until)
             iterations, values = iterations[iterations <= last], values[iterations <= last]
