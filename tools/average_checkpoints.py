@@ -57,12 +57,9 @@ def average_state_dicts(dicts: list[dict], names: list[str], weights: list[float
                 raise ValueError(f"{name}: {key} has shape {tuple(state[key].shape)}, {names[0]} has "
                                  f"{tuple(tensor.shape)}: not the same network.")
     w = torch.full((len(dicts),), 1.0 / len(dicts)) if weights is None else torch.tensor(weights)
-    averaged = {key: mean_of([d[key] for d in dicts], w) if value.is_floating_point() else dicts[-1][key]
+    per_key = {key: expert_weights if expert_weights is not None and key.startswith(EXPERTS) else w for key in first}
+    averaged = {key: mean_of([d[key] for d in dicts], per_key[key]) if value.is_floating_point() else dicts[-1][key]
                 for key, value in dicts[-1].items()}
-    if expert_weights is not None:
-        for key in averaged:
-            if key.startswith(EXPERTS) and averaged[key].is_floating_point():
-                averaged[key] = mean_of([d[key] for d in dicts], expert_weights)
     for key in averaged:  # rsl-rl's EmpiricalNormalization keeps _var and _std = sqrt(_var) side by side
         if key.endswith("_std") and key[: -len("_std")] + "_var" in averaged:
             averaged[key] = averaged[key[: -len("_std")] + "_var"].sqrt()
