@@ -56,7 +56,7 @@ class SymmetryConfig:
 
     data_augmentation_func: str
     """``"module:function"`` (env, obs, actions) -> the batch followed by its mirror, e.g.
-    ``"pchc_rsl.envs.g1_symmetry:augment_with_mirror"``."""
+    ``"pchc_rsl.envs.g1.symmetry:augment_with_mirror"``."""
     use_data_augmentation: bool = True
     use_mirror_loss: bool = False
     mirror_loss_coeff: float = 0.0

@@ -9,12 +9,12 @@ from __future__ import annotations
 
 from pchc_rsl.configs.base import TaskConfig
 from pchc_rsl.configs.g1_training import g1_task_config
-from pchc_rsl.envs.g1_env import PushConfig, RandomizationConfig, RewardTerm
-from pchc_rsl.envs.g1_fall_recovery import FallRecoveryConfig
-from pchc_rsl.envs.warp_settings import WarpSettings
+from pchc_rsl.envs.g1.env import PushConfig, RandomizationConfig, RewardTerm
+from pchc_rsl.envs.g1.fall_recovery import FallRecoveryConfig
+from pchc_rsl.envs.physics.warp_settings import WarpSettings
 from pchc_rsl.robots.g1.constants import FALL_RECOVERY_HELD_JOINTS, FALL_RECOVERY_JOINTS
 
-R = "pchc_rsl.envs.g1_rewards:"
+R = "pchc_rsl.envs.g1.rewards:"
 
 
 def fall_recovery_rewards() -> list[RewardTerm]:
@@ -63,7 +63,7 @@ def fall_recovery_env(fast: bool = False) -> FallRecoveryConfig:
 def g1_fall_recovery_task(fast: bool = False) -> TaskConfig:
     env = fall_recovery_env(fast)
     name = "g1-fall-recovery-fast" if fast else "g1-fall-recovery"
-    return g1_task_config(name, "pchc_rsl.envs.g1_fall_recovery:G1FallRecoveryEnv", env, "g1_fall_recovery")
+    return g1_task_config(name, "pchc_rsl.envs.g1.fall_recovery:G1FallRecoveryEnv", env, "g1_fall_recovery")
 
 
 def g1_fall_recovery_fast_task() -> TaskConfig:

@@ -36,7 +36,7 @@ def g1_task_config(name: str, env_class: str, env, experiment_name: str, symmetr
                 entropy_coef=0.01,  # mjlab's G1 velocity task and HoST
                 reward_group_names=["task", *env.objective_names],
                 amp_cfg=AMPConfig(joint_names=list(env.joints), window=env.amp_window),
-                symmetry_cfg=SymmetryConfig("pchc_rsl.envs.g1_symmetry:augment_with_mirror", use_data_augmentation=True,
+                symmetry_cfg=SymmetryConfig("pchc_rsl.envs.g1.symmetry:augment_with_mirror", use_data_augmentation=True,
                                             use_mirror_loss=True, mirror_loss_coeff=1.0) if symmetry else None,
             ),
             actor=actor,

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 from pchc_rsl.configs.base import TaskConfig
 from pchc_rsl.configs.g1_training import g1_task_config
-from pchc_rsl.envs.g1_env import G1EnvConfig, PushConfig, RandomizationConfig, RewardTerm
+from pchc_rsl.envs.g1.env import G1EnvConfig, PushConfig, RandomizationConfig, RewardTerm
 from pchc_rsl.robots.g1.constants import WALK_HELD_JOINTS, WALK_JOINTS
 
-R = "pchc_rsl.envs.g1_rewards:"
+R = "pchc_rsl.envs.g1.rewards:"
 
 
 def walk_rewards() -> list[RewardTerm]:
@@ -81,7 +81,7 @@ def g1_walk_task(fast: bool = False) -> TaskConfig:
     """The walking task as the released walker trains (docs/results/g1_walk.md, "Recipe and lineage"): the
     disturbance end draws half the action noise the stride end draws (docs/design.md, "Action noise")."""
     env = walk_env(fast)
-    cfg = g1_task_config("g1-walk-fast" if fast else "g1-walk", "pchc_rsl.envs.g1_env:G1Env", env, "g1_walk",
+    cfg = g1_task_config("g1-walk-fast" if fast else "g1-walk", "pchc_rsl.envs.g1.env:G1Env", env, "g1_walk",
                          symmetry=True)
     cfg.runner.actor.kwargs |= {"objective_noise_scales": [0.5, 1.0]}
     return cfg

@@ -3,7 +3,7 @@ import math
 import pytest
 import torch
 
-from pchc_rsl.envs.commanded_path import CommandedPath
+from pchc_rsl.envs.g1.commanded_path import CommandedPath
 
 
 def test_the_path_of_a_turning_command_is_the_arc_worked_by_hand():

@@ -103,7 +103,7 @@ def scripted_walk(env, stride: float, speed: float, duration: float, duty: float
     """Walk both feet at ``speed`` along +x with strides of ``stride`` (each foot on the ground ``duty`` of its
     cycle, the feet half a cycle apart), feeding FootContacts the sole forces and positions step by step; returns
     the stride reward summed over the walk (per second of reward weight: times dt)."""
-    from pchc_rsl.envs import g1_rewards
+    from pchc_rsl.envs.g1 import rewards as g1_rewards
 
     dt, K = env.dt, env.cfg.decimation
     period = stride / speed
@@ -139,7 +139,7 @@ def test_stride_reward_pays_longer_steps_at_the_same_speed():
 
 
 def test_stride_reward_pays_nothing_sideways_backwards_or_when_told_to_stand():
-    from pchc_rsl.envs import g1_rewards
+    from pchc_rsl.envs.g1 import rewards as g1_rewards
 
     env = make_walk_env(num_envs=3)
     env.feet.contact[:] = True
@@ -153,7 +153,7 @@ def test_stride_reward_pays_nothing_sideways_backwards_or_when_told_to_stand():
 def test_stride_reward_gated_by_speed_pays_nothing_for_walking_faster():
     """speed_std: a 0.3 m step at the commanded 0.5 m/s pays 0.3; the same step at 1.0 m/s pays
     0.3 exp(-0.5^2 / 0.25^2) = 0.3 e^-4; at 0.6 m/s, 0.3 e^-0.16."""
-    from pchc_rsl.envs import g1_rewards
+    from pchc_rsl.envs.g1 import rewards as g1_rewards
 
     env = make_walk_env(num_envs=3)
     env.feet.stance_step[:] = torch.tensor([[0.3, 0.0], [0.0, 0.0]])
@@ -167,7 +167,7 @@ def test_stride_reward_gated_by_speed_pays_nothing_for_walking_faster():
 def test_stride_reward_at_command_speed_pays_a_faster_walk_as_the_commanded_one():
     """at_command_speed: a 0.3 m step walked at twice the commanded 0.5 m/s pays the 0.15 m its cadence makes at
     0.5 m/s; a slower walk pays its whole step; told 0.3 m/s sideways and stepping 0.2 m left at 0.6 m/s, 0.1."""
-    from pchc_rsl.envs import g1_rewards
+    from pchc_rsl.envs.g1 import rewards as g1_rewards
 
     env = make_walk_env(num_envs=4)
     env.feet.stance_step[:] = torch.tensor([[[0.3, 0.0], [0.0, 0.0]], [[0.3, 0.0], [0.0, 0.0]],
@@ -184,7 +184,7 @@ def test_stride_reward_gated_by_average_speed_reads_the_averaged_velocity_not_th
     """average_speed_std 0.1: a 0.3 m step pays 0.3 when the averaged velocity is the commanded 0.5 m/s, whatever the
     instantaneous velocity (0.8 m/s here); averaged 0.6 m/s, 0.3 e^-1; averaged 0.5 m/s ahead and 0.2 m/s aside,
     0.3 e^-4."""
-    from pchc_rsl.envs import g1_rewards
+    from pchc_rsl.envs.g1 import rewards as g1_rewards
 
     env = make_walk_env(num_envs=3)
     env.feet.stance_step[:] = torch.tensor([[0.3, 0.0], [0.0, 0.0]])
@@ -199,7 +199,7 @@ def test_stride_reward_at_the_commanded_length_scales_slower_and_faster_steps_al
     """Told 0.5 m/s, a 0.3 m step pays 0.3 x 0.5 / v for the averaged velocity v along the command: 0.3 at 0.5 m/s,
     0.25 at 0.6, 0.375 at 0.4, and 0.6 (at most twice) when standing still; told 0.3 m/s aside, a 0.2 m step aside at
     0.2 m/s pays 0.3."""
-    from pchc_rsl.envs import g1_rewards
+    from pchc_rsl.envs.g1 import rewards as g1_rewards
 
     env = make_walk_env(num_envs=5)
     env.feet.stance_step[:] = torch.tensor([[[0.3, 0.0], [0.0, 0.0]]] * 4 + [[[0.0, 0.2], [0.0, 0.0]]])
@@ -213,7 +213,7 @@ def test_stride_reward_at_the_commanded_length_scales_slower_and_faster_steps_al
 
 def test_stride_reward_gated_by_path_pays_less_the_further_the_base_is_from_its_commanded_path():
     """path_std 0.25: a 0.3 m step on the path pays 0.3; 0.25 m ahead of it, 0.3 e^-1; 0.5 m aside, 0.3 e^-4."""
-    from pchc_rsl.envs import g1_rewards
+    from pchc_rsl.envs.g1 import rewards as g1_rewards
 
     env = make_walk_env(num_envs=3)
     env.feet.stance_step[:] = torch.tensor([[0.3, 0.0], [0.0, 0.0]])
@@ -273,7 +273,7 @@ def push_now(env):
 
 
 def test_push_records_direction_and_gives_r_disturb():
-    from pchc_rsl.envs import g1_rewards
+    from pchc_rsl.envs.g1 import rewards as g1_rewards
 
     env = make_walk_env(num_envs=3)
     env.commands[:] = 0.0
@@ -295,7 +295,7 @@ def test_push_records_direction_and_gives_r_disturb():
 
 def test_r_disturb_measures_position_and_velocity_against_the_same_moving_reference():
     """Walking on at the commanded velocity after a push costs nothing; stopping costs in both terms."""
-    from pchc_rsl.envs import g1_rewards
+    from pchc_rsl.envs.g1 import rewards as g1_rewards
 
     env = make_walk_env(num_envs=2)
     env.commands[:] = torch.tensor([0.5, 0.0, 0.0])
@@ -319,7 +319,7 @@ def test_r_disturb_reference_turns_with_the_commanded_yaw_rate():
     radius 1 m: worked by hand, it ends (sin 0.5, 1 - cos 0.5) = (0.4794, 0.1224) m ahead and to the left in the
     push-time frame, i.e. (-0.1224, 0.4794) m in the world, moving 0.5 m/s at heading pi/2 + 0.5. A robot on that
     arc pays nothing; one that walked straight on pays for the chord it missed."""
-    from pchc_rsl.envs import g1_rewards
+    from pchc_rsl.envs.g1 import rewards as g1_rewards
 
     env = make_walk_env(num_envs=2)
     env.commands[:] = torch.tensor([0.5, 0.0, 0.5])
@@ -363,7 +363,7 @@ def test_r_disturb_reference_follows_a_sideways_command_in_the_push_time_frame()
 def test_r_disturb_reference_moves_straight_without_reference_turns():
     """The paper's x_last + v_ref t: told 0.5 m/s and 0.5 rad/s from heading 0, after 1 s the reference is 0.5 m
     straight ahead."""
-    from pchc_rsl.envs.g1_config import PushConfig
+    from pchc_rsl.envs.g1.config import PushConfig
 
     env = make_walk_env(num_envs=1, push=PushConfig(reference_turns=False))
     env.commands[:] = torch.tensor([0.5, 0.0, 0.5])
@@ -377,7 +377,7 @@ def test_r_disturb_reference_moves_straight_without_reference_turns():
 def test_velocity_average_is_an_exponential_average_of_the_base_velocity_and_yaw_rate():
     """A reference loop over the same steps: v_avg += dt / tau (v - v_avg) from 0 at the reset, v = (base-frame v_x,
     v_y, the yaw's change over the step / dt)."""
-    from pchc_rsl.envs import g1_rewards
+    from pchc_rsl.envs.g1 import rewards as g1_rewards
 
     env = make_walk_env(num_envs=2, velocity_average_s=0.1)
     env.commands[:] = torch.tensor([0.5, 0.0, 0.5])
@@ -397,7 +397,7 @@ def test_velocity_average_is_an_exponential_average_of_the_base_velocity_and_yaw
 
 
 def test_critic_push_timing_adds_the_window_left_and_the_time_to_the_next_push():
-    from pchc_rsl.envs.g1_config import PushConfig
+    from pchc_rsl.envs.g1.config import PushConfig
 
     plain = make_walk_env(num_envs=1, critic_command_state=False)
     env = make_walk_env(num_envs=1, critic_command_state=False, critic_push_timing=True,
@@ -431,7 +431,7 @@ def test_critic_command_state_adds_the_path_offset_in_the_heading_frame_the_head
 
 def test_vertical_r_disturb_adds_the_height_change_since_the_push():
     """A fall (the pelvis 0.5 m lower) with 0.3 m horizontal drift: -sqrt(0.3^2 + 0.5^2) instead of -0.3."""
-    from pchc_rsl.envs import g1_rewards
+    from pchc_rsl.envs.g1 import rewards as g1_rewards
 
     env = make_walk_env(num_envs=1)
     env.commands[:] = 0.0
@@ -446,7 +446,7 @@ def test_vertical_r_disturb_adds_the_height_change_since_the_push():
 
 def test_com_r_disturb_charges_the_whole_body_com_instead_of_the_pelvis():
     """The pelvis held on its push origin while the COM drifted 0.2 m: 0 by the pelvis, -0.2 by the COM."""
-    from pchc_rsl.envs import g1_rewards
+    from pchc_rsl.envs.g1 import rewards as g1_rewards
 
     env = make_walk_env(num_envs=1)
     env.commands[:] = 0.0
@@ -500,7 +500,7 @@ def test_two_iteration_training_writes_checkpoint_and_events(tmp_path):
 
 def test_walking_fall_cost_charges_a_terminating_fall():
     """Walking's fall is its termination: a pelvis below termination_height costs fall_cost / dt (x dt = fall_cost)."""
-    from pchc_rsl.envs import g1_rewards
+    from pchc_rsl.envs.g1 import rewards as g1_rewards
 
     env = make_walk_env(num_envs=2)
     robot = env.robot
@@ -515,7 +515,7 @@ def test_walking_fall_cost_charges_a_terminating_fall():
 def test_backward_touchdown_counts_feet_landing_behind_while_walking_is_commanded():
     """Env 0: the left foot lands 5 cm back (1), the right foot 30 cm ahead (0); env 1: both land 2 cm back (2); env 2
     lands back but is told to stand (0); env 3: a backward step held in stance, no touchdown this step (0)."""
-    from pchc_rsl.envs import g1_rewards
+    from pchc_rsl.envs.g1 import rewards as g1_rewards
 
     env = make_walk_env(num_envs=4)
     feet = env.feet
@@ -529,7 +529,7 @@ def test_backward_touchdown_counts_feet_landing_behind_while_walking_is_commande
 
 def test_fall_term_costs_its_weight_once_at_the_fall():
     """The task group's fall: env 0's pelvis is below termination_height, so weight -5 costs 5 of return (x dt)."""
-    from pchc_rsl.envs import g1_rewards
+    from pchc_rsl.envs.g1 import rewards as g1_rewards
 
     env = make_walk_env(num_envs=2)
     robot = env.robot
@@ -542,7 +542,7 @@ def test_gait_metrics_of_a_scripted_walk_and_of_backward_side_taps():
     """Strides of 0.6 m at 0.5 m/s (a 1.2 s cycle, each foot 0.48 s in the air): 0.83 touchdowns per foot per
     second, forward step 0.6 m, no side step or backward touchdown, median air time 0.48 s. Then a foot tapping
     0.1 m behind and 0.2 m beside where it lifted off: every touchdown is backward."""
-    from pchc_rsl.envs.g1_contacts import median_from_histogram
+    from pchc_rsl.envs.g1.contacts import median_from_histogram
 
     env = make_walk_env(num_envs=1)
     env.episode.reset(torch.tensor([0]))
@@ -663,7 +663,7 @@ def test_posture_metrics_are_the_episode_means_of_pelvis_height_and_knee_angle()
 def test_heading_error_is_the_turn_against_the_commanded_turn_since_the_command():
     """Told to turn at 0.5 rad/s, a robot standing still for 20 steps (0.4 s) is 0.2 rad short of its commanded
     heading, plus whatever it turned by itself, read here from the pelvis quaternion; a new command starts over."""
-    from pchc_rsl.envs import g1_rewards
+    from pchc_rsl.envs.g1 import rewards as g1_rewards
 
     env = make_walk_env(num_envs=2, command_resample_s=None)
     def yaw():
@@ -730,7 +730,7 @@ def test_single_axis_commands_move_one_axis_alone_evenly_over_the_axes():
 
 
 def test_single_stance_pays_walking_not_hopping_shuffling_or_standing():
-    from pchc_rsl.envs import g1_rewards
+    from pchc_rsl.envs.g1 import rewards as g1_rewards
 
     env = make_walk_env(num_envs=4)
     env.feet.contact[:] = torch.tensor([[True, False], [False, False], [True, True], [False, True]])
@@ -771,7 +771,7 @@ class HostSyncRecorder:
 
     WATCHED = ("item", "nonzero", "tolist", "__bool__", "__int__", "__float__")
     OWN_CODE = (os.sep + "envs" + os.sep, os.sep + "preference.py")
-    CPU_ONLY = (os.sep + "physics.py",)  # the C MuJoCo backend runs on host memory by construction
+    CPU_ONLY = (os.sep + "batched_mujoco.py",)  # the C MuJoCo backend runs on host memory by construction
 
     def __init__(self, monkeypatch):
         self.calls = []
@@ -827,7 +827,7 @@ def test_a_step_waits_on_the_device_only_for_the_reset_indices(monkeypatch, task
         env.step(actions)
     syncs = {where: name for name, where in recorder.calls}
     assert {name for name in syncs.values()} == {"nonzero"}, recorder.calls
-    assert len(syncs) == 1 and "g1_env.py" in next(iter(syncs)), recorder.calls
+    assert len(syncs) == 1 and os.path.join("g1", "env.py") in next(iter(syncs)), recorder.calls
     recorder.calls.clear()
     namespace = {}  # code compiled as if it lived in envs/: the recorder catches its mask assignment
     exec(compile("def clear(w):\n    w[w > 0] = 0\n", os.sep.join(["", "envs", "example.py"]), "exec"), namespace)
@@ -839,7 +839,7 @@ def test_position_error_is_the_base_against_where_the_commands_take_it_since_the
     """Told 0.5 m/s forward, a robot that takes no step for 20 steps (0.4 s) is 0.1-0.2 m behind its commanded
     point (it sways a few cm): the error is its own displacement, read from the physics, minus 0.2 m along its start
     heading. A push's window and a new command start the path over at the robot."""
-    from pchc_rsl.envs import g1_rewards
+    from pchc_rsl.envs.g1 import rewards as g1_rewards
 
     env = make_walk_env(num_envs=2, command_resample_s=None)
     env.reset()

@@ -4,7 +4,7 @@ import torch
 from test_g1_env import pytestmark  # noqa: F401  (skip without the G1 model)
 
 from pchc_rsl.configs import task_config
-from pchc_rsl.envs.g1_fall_recovery import host_success, standing_phase
+from pchc_rsl.envs.g1.fall_recovery import host_success, standing_phase
 
 
 def make_env(num_envs=3, **overrides):
@@ -28,7 +28,7 @@ def test_episodes_start_prone_or_supine():
 
 
 def test_energy_reward_equals_a_hand_computation():
-    from pchc_rsl.envs import g1_rewards
+    from pchc_rsl.envs.g1 import rewards as g1_rewards
 
     env = make_env(num_envs=1)
     tau = torch.tensor([[[2.0, -3.0] + [0.0] * 21, [1.0, 1.0] + [0.0] * 21]])  # [1, K=2, 23]

@@ -55,7 +55,7 @@ def test_model_joint_ranges_are_mirror_images():
 
 @needs_g1
 def test_mirror_twice_is_identity_and_keeps_lambda():
-    from pchc_rsl.envs.g1_symmetry import augment_with_mirror, mirror_of
+    from pchc_rsl.envs.g1.symmetry import augment_with_mirror, mirror_of
 
     env = make_walk_env(num_envs=4)
     for _ in range(5):
@@ -96,13 +96,13 @@ def test_mirrored_start_stepped_with_mirrored_actions_stays_the_mirror():
 
 
 def _off():
-    from pchc_rsl.envs.g1_config import RandomizationConfig
+    from pchc_rsl.envs.g1.config import RandomizationConfig
 
     return RandomizationConfig(enabled=False)
 
 
 def _no_push():
-    from pchc_rsl.envs.g1_config import PushConfig
+    from pchc_rsl.envs.g1.config import PushConfig
 
     return PushConfig(enabled=False)
 
@@ -131,7 +131,7 @@ def test_the_holds_state_of_a_mirrored_walker_is_the_mirror():
 
 def _make_the_second_robot_the_mirror_of_the_first(env):
     """Env 1 takes the mirror image of env 0's state, command and action buffers; returns the env's mirror."""
-    from pchc_rsl.envs.g1_symmetry import mirror_of
+    from pchc_rsl.envs.g1.symmetry import mirror_of
     from pchc_rsl.robots.g1.symmetry import mirror_free_state
 
     qpos, qvel = env.physics.qpos[0].numpy().copy(), env.physics.qvel[0].numpy().copy()

@@ -92,3 +92,33 @@ def test_a_models_kwargs_take_any_argument_its_class_accepts():
     assert cfg.runner.actor.kwargs["trained_experts"] == [3, 4]
     with pytest.raises(OverrideError, match="unknown config key 'runner.actor.kwargs.trained_expert'"):
         apply_overrides(cfg, ["runner.actor.kwargs.trained_expert=[3]"])
+
+
+def test_a_config_saved_under_moved_module_names_restores_as_today():
+    """A checkpoint's config names reward terms, the symmetry function and the env class by module path; one saved
+    before the envs moved into envs/g1 and envs/physics restores to the config of today's task."""
+    import importlib
+
+    from pchc_rsl.configs import task_config
+    from pchc_rsl.training.build import restore_config
+    from pchc_rsl.training.moved_modules import MOVED_MODULES
+
+    for new in MOVED_MODULES.values():
+        importlib.import_module(new)
+    old_of = {new: old for old, new in MOVED_MODULES.items()}
+
+    def old_names(value):
+        if isinstance(value, dict):
+            return {k: old_names(v) for k, v in value.items()}
+        if isinstance(value, list):
+            return [old_names(v) for v in value]
+        if isinstance(value, str) and ":" in value:
+            module, _, attribute = value.partition(":")
+            return f"{old_of.get(module, module)}:{attribute}"
+        return value
+
+    for task in ("g1-walk", "g1-fall-recovery"):
+        today = task_config(task).to_dict()
+        saved = old_names(today)
+        assert "pchc_rsl.envs.g1_rewards:alive" in str(saved) or "pchc_rsl.envs.g1_rewards:" in str(saved)
+        assert restore_config(saved).to_dict() == today

@@ -82,8 +82,8 @@ def test_prone_robots_overflow_64_constraint_rows_and_fit_the_task_buffers():
     import mujoco
 
     from pchc_rsl.configs import task_config
-    from pchc_rsl.envs.physics_warp import PhysicsOverflow, WarpMuJoCo
-    from pchc_rsl.envs.warp_settings import WarpSettings
+    from pchc_rsl.envs.physics.warp_mujoco import PhysicsOverflow, WarpMuJoCo
+    from pchc_rsl.envs.physics.warp_settings import WarpSettings
     from pchc_rsl.robots.g1.constants import FALL_RECOVERY_HELD_JOINTS, FALL_RECOVERY_JOINTS
 
     model, standing = g1(FALL_RECOVERY_JOINTS, FALL_RECOVERY_HELD_JOINTS)
@@ -119,7 +119,7 @@ def test_buffers_too_small_for_the_start_are_refused_in_one_line():
     built, naming the setting and the size needed; a size that is no size, at once."""
     from test_g1_env import make_walk_env
 
-    from pchc_rsl.envs.warp_settings import WarpSettings
+    from pchc_rsl.envs.physics.warp_settings import WarpSettings
 
     with pytest.raises(ValueError) as refused:
         make_walk_env(num_envs=2, physics="warp", warp=WarpSettings(constraints_per_env=8))
@@ -135,8 +135,8 @@ def test_an_overflowing_constraint_buffer_stops_with_what_to_set():
     """Robots landing need about 30 constraint rows each: a buffer of 4 overflows, and the report names the buffer,
     the setting and a size for it. (They start 0.5 m up, so the start-up check, which refuses 4 for robots on the
     floor, sees none land.)"""
-    from pchc_rsl.envs.physics_warp import PhysicsOverflow, WarpMuJoCo
-    from pchc_rsl.envs.warp_settings import WarpSettings
+    from pchc_rsl.envs.physics.warp_mujoco import PhysicsOverflow, WarpMuJoCo
+    from pchc_rsl.envs.physics.warp_settings import WarpSettings
     from pchc_rsl.robots.g1.constants import WALK_JOINTS
 
     model, standing = g1(WALK_JOINTS)
@@ -154,7 +154,7 @@ def test_torch_views_and_streams_are_made_once(monkeypatch):
     """After construction, steps, resets and sanitising never call wp.to_torch (each call builds a new tensor)."""
     import warp as wp
 
-    from pchc_rsl.envs.physics_warp import WarpMuJoCo
+    from pchc_rsl.envs.physics.warp_mujoco import WarpMuJoCo
     from pchc_rsl.robots.g1.constants import WALK_JOINTS
     from pchc_rsl.robots.g1.model import build_g1_model
 
@@ -176,9 +176,9 @@ def test_every_field_in_which_the_variants_differ_is_batched_per_world():
     model's rows equal the C variants' values field by field."""
     import numpy as np
 
-    from pchc_rsl.envs.g1_config import RandomizationConfig
-    from pchc_rsl.envs.g1_randomization import model_variants
-    from pchc_rsl.envs.physics_warp import WarpMuJoCo, differing_fields
+    from pchc_rsl.envs.g1.config import RandomizationConfig
+    from pchc_rsl.envs.g1.randomization import model_variants
+    from pchc_rsl.envs.physics.warp_mujoco import WarpMuJoCo, differing_fields
     from pchc_rsl.robots.g1.constants import WALK_JOINTS
     from pchc_rsl.robots.g1.model import build_g1_model
 
@@ -204,8 +204,8 @@ def test_every_field_in_which_the_variants_differ_is_batched_per_world():
 def test_a_control_per_substep_reaches_the_physics_on_both_backends():
     """An action delay hands the physics one control per substep: the old target for the first substeps, the new
     one after. Both backends follow the same switch (and it matters: holding the new target all step differs)."""
-    from pchc_rsl.envs.physics import BatchedMuJoCo
-    from pchc_rsl.envs.physics_warp import WarpMuJoCo
+    from pchc_rsl.envs.physics.batched_mujoco import BatchedMuJoCo
+    from pchc_rsl.envs.physics.warp_mujoco import WarpMuJoCo
     from pchc_rsl.robots.g1.constants import WALK_JOINTS
     from pchc_rsl.robots.g1.model import build_g1_model, default_joint_positions
 
@@ -236,11 +236,11 @@ def test_cuda_graph_is_captured_and_replayed_on_its_own_stream_ordered_with_torc
 
     import warp as wp
 
-    from pchc_rsl.envs import physics_warp
+    from pchc_rsl.envs.physics import warp_mujoco
     from pchc_rsl.robots.g1.constants import WALK_JOINTS
     from pchc_rsl.robots.g1.model import build_g1_model
 
-    physics = physics_warp.WarpMuJoCo(build_g1_model(list(WALK_JOINTS), 0.005), 2, 4, device="cpu")
+    physics = warp_mujoco.WarpMuJoCo(build_g1_model(list(WALK_JOINTS), 0.005), 2, 4, device="cpu")
     calls = []
 
     class Stream:
@@ -282,7 +282,7 @@ def test_cuda_graph_is_captured_and_replayed_on_its_own_stream_ordered_with_torc
     physics.step(ctrl)
     assert calls == [("wait", "own", "torch"), ("on", "own"), ("launch", "graph", "own"), ("wait", "torch", "own")]
     # a reset's forward pass: its own graph, captured at the first reset, replayed at the next (not the step's)
-    monkeypatch.setattr(physics_warp.mjw, "forward", lambda model, data: calls.append(("forward",)))
+    monkeypatch.setattr(warp_mujoco.mjw, "forward", lambda model, data: calls.append(("forward",)))
     monkeypatch.setattr(Capture, "__init__", lambda self, device=None, stream=None: (
         calls.append(("capture", stream.name)), setattr(self, "graph", "forward graph"))[0])
     qpos, qvel = physics.qpos[:1].double().clone(), physics.qvel[:1].double().clone()
@@ -300,8 +300,8 @@ def test_cuda_graph_is_captured_and_replayed_on_its_own_stream_ordered_with_torc
 def test_solver_limit_hits_are_counted_on_the_device_and_never_printed(capfd):
     """One solver iteration cannot converge with feet on the floor: each world-step then ends at the limit. mujoco_warp
     would print a line per world and step; here nothing is printed and the share of hits is reported."""
-    from pchc_rsl.envs.physics_warp import WarpMuJoCo
-    from pchc_rsl.envs.warp_settings import WarpSettings
+    from pchc_rsl.envs.physics.warp_mujoco import WarpMuJoCo
+    from pchc_rsl.envs.physics.warp_settings import WarpSettings
     from pchc_rsl.robots.g1.constants import WALK_JOINTS
 
     model, standing = g1(WALK_JOINTS)

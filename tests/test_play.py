@@ -94,7 +94,7 @@ def test_gif_draws_pushes_as_red_arrows(walk_checkpoint, egl, tmp_path):
 def test_push_arrow_points_along_the_push():
     import mujoco
 
-    from pchc_rsl.envs.g1_render import add_push_arrow
+    from pchc_rsl.envs.g1.render import add_push_arrow
 
     scene = mujoco.MjvScene(mujoco.MjModel.from_xml_string("<mujoco/>"), maxgeom=10)
     direction = np.array([0.6, -0.8])

@@ -15,7 +15,7 @@ def test_a_warp_trained_checkpoint_evaluates_exports_and_plays_on_c_mujoco(tmp_p
 
     from pchc_rsl.cli import eval as eval_cli
     from pchc_rsl.cli import export_onnx, train
-    from pchc_rsl.envs.physics import BatchedMuJoCo
+    from pchc_rsl.envs.physics.batched_mujoco import BatchedMuJoCo
     from pchc_rsl.evaluation.checkpoint import evaluation_config, load_policy, loaded_policy
 
     run = tmp_path / "run"

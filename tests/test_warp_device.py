@@ -7,7 +7,7 @@ import torch
 pytest.importorskip("mujoco_warp", reason="the warp extra is not installed")
 import warp as wp  # noqa: E402
 
-from pchc_rsl.envs import warp_device  # noqa: E402
+from pchc_rsl.envs.physics import warp_device  # noqa: E402
 
 
 def fake_cuda(monkeypatch, devices: int, driver, toolkit=(13, 4), mempool: bool = True) -> None:
@@ -48,14 +48,14 @@ def test_cuda_graphs_only_with_conditional_graphs_and_memory_pools(monkeypatch):
 
 def test_without_graph_support_the_physics_runs_eagerly(monkeypatch):
     """A CUDA device lacking conditional graphs: every step runs the substeps directly, nothing is captured."""
-    from pchc_rsl.envs import physics_warp
+    from pchc_rsl.envs.physics import warp_mujoco
     from pchc_rsl.robots.g1.constants import WALK_JOINTS
     from pchc_rsl.robots.g1.model import build_g1_model
     from test_g1_env import g1_available
 
     if not g1_available():
         pytest.skip("the G1 model is not available (set MENAGERIE_ROOT)")
-    physics = physics_warp.WarpMuJoCo(build_g1_model(list(WALK_JOINTS), 0.005), 2, 4, device="cpu")
+    physics = warp_mujoco.WarpMuJoCo(build_g1_model(list(WALK_JOINTS), 0.005), 2, 4, device="cpu")
     calls = []
 
     class Device:

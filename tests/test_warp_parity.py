@@ -27,8 +27,8 @@ def test_the_same_physics_agrees_and_a_different_one_fails(tmp_path, capsys):
 def test_mirrored_physics_carries_the_envs_writes_and_resets():
     """A mirror of a C MuJoCo physics gets the env's velocity kick and reset, and so ends where the env's physics
     does (two C MuJoCo physics: the same arithmetic, bit for bit)."""
-    from pchc_rsl.envs.physics import BatchedMuJoCo
-    from pchc_rsl.envs.physics_mirror import MirroredPhysics
+    from pchc_rsl.envs.physics.batched_mujoco import BatchedMuJoCo
+    from pchc_rsl.envs.physics.mirror import MirroredPhysics
     from pchc_rsl.robots.g1.constants import WALK_JOINTS
     from pchc_rsl.robots.g1.model import build_g1_model
 

@@ -27,7 +27,7 @@ import numpy as np
 import torch
 
 from pchc_rsl.configs import task_config
-from pchc_rsl.envs.physics import BatchedMuJoCo
+from pchc_rsl.envs.physics.batched_mujoco import BatchedMuJoCo
 from pchc_rsl.training.build import make_env
 
 POSTURES = {"standing": "g1-walk", "lying": "g1-fall-recovery"}

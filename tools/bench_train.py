@@ -22,7 +22,7 @@ import time
 import torch
 
 from pchc_rsl.configs import task_config
-from pchc_rsl.envs.physics_backend import make_physics
+from pchc_rsl.envs.physics.backend import make_physics
 from pchc_rsl.training.build import make_runner
 from pchc_rsl.training.checks import check_device, check_physics
 from pchc_rsl.training.overrides import apply_overrides
@@ -87,8 +87,8 @@ def profile_iteration(runner, top: int) -> None:
             print(f"   {own:7.3f} {own / total:6.1%} {calls:>7} {name} ({where})")
         by_caller = {}
         for (filename, line, name), (_, _, own, cumulative, _) in stats.stats.items():
-            for part in ("physics.py", "g1_rewards.py", "g1_observations.py", "style.py", "discriminator.py",
-                         "pci.py", "g1_symmetry.py", "multi_critic_ppo.py", "ppo.py", "g1_env.py"):
+            for part in ("batched_mujoco.py", "g1/rewards.py", "g1/observations.py", "style.py", "discriminator.py",
+                         "pci.py", "g1/symmetry.py", "multi_critic_ppo.py", "ppo.py", "g1/env.py"):
                 if filename.endswith(part) and name in ("step", "compute", "groups", "push", "push_amp", "reward",
                                                         "update", "act", "process_env_step", "forward",
                                                         "augment_with_mirror", "compute_returns"):

@@ -29,7 +29,7 @@ from tensordict import TensorDict
 from rsl_rl.storage import RolloutStorage
 
 from pchc_rsl.configs import task_config
-from pchc_rsl.envs import g1_symmetry
+from pchc_rsl.envs.g1 import symmetry as g1_symmetry
 from pchc_rsl.storage import MultiCriticRolloutStorage
 from pchc_rsl.training.build import make_runner
 

@@ -53,7 +53,7 @@ def warp_lines(device: str) -> list[tuple[bool, str]]:
     except ImportError as error:
         return [(False, f"MuJoCo Warp is not installed ({error}): pip install -e '.[warp]' (offline: pip install "
                         "--no-index --find-links WHEELHOUSE -e '.[warp]')")]
-    from pchc_rsl.envs.warp_device import cuda_graph_problem, mujoco_warp_version_note, warp_cuda_problem
+    from pchc_rsl.envs.physics.warp_device import cuda_graph_problem, mujoco_warp_version_note, warp_cuda_problem
 
     wp.config.quiet = True
     problem = warp_cuda_problem(device)

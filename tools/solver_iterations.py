@@ -6,7 +6,7 @@ MuJoCo Warp stops its solver at 10 iterations (inside a captured step the slowes
 batch) and reports that most steps end there. Whether that matters is a question about the G1, not about Warp, so
 it is measured on C MuJoCo: a task's env at C MuJoCo's 100 iterations (the reference) is driven by random actions
 in [-1, 1] (robots get up, fall and lie: many contacts), and its physics calls are mirrored (same resets, controls,
-pushes; ``envs/physics_mirror.py``) onto
+pushes; ``envs/physics/mirror.py``) onto
 
 - C MuJoCo at 10 iterations, put back on the reference's state after every step: the error of one policy step;
 - C MuJoCo at 10 iterations running free: where the truncation carries a rollout;
@@ -26,8 +26,8 @@ import numpy as np
 import torch
 
 from pchc_rsl.configs import task_config
-from pchc_rsl.envs.physics import STATE_SPEC, BatchedMuJoCo
-from pchc_rsl.envs.physics_mirror import MirroredPhysics, edited_copies
+from pchc_rsl.envs.physics.batched_mujoco import STATE_SPEC, BatchedMuJoCo
+from pchc_rsl.envs.physics.mirror import MirroredPhysics, edited_copies
 from pchc_rsl.training.build import make_env
 
 

@@ -28,7 +28,7 @@ import torch
 
 from pchc_rsl.training.build import make_env
 from pchc_rsl.configs import task_config
-from pchc_rsl.envs.physics import STATE_SPEC
+from pchc_rsl.envs.physics.batched_mujoco import STATE_SPEC
 
 SCENARIOS = {
     "fall-recovery": ("g1-fall-recovery", "task", "random"),

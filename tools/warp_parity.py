@@ -28,8 +28,8 @@ import mujoco
 import torch
 
 from pchc_rsl.configs import task_config
-from pchc_rsl.envs.physics import BatchedMuJoCo
-from pchc_rsl.envs.physics_mirror import MirroredPhysics, edited_copies
+from pchc_rsl.envs.physics.batched_mujoco import BatchedMuJoCo
+from pchc_rsl.envs.physics.mirror import MirroredPhysics, edited_copies
 from pchc_rsl.training.build import make_env
 
 CHAOS_OFFSET = 1e-6
@@ -54,7 +54,7 @@ def compare(task: str = "g1-walk-fast", device: str = "cuda:0", num_envs: int = 
             perturb_gains: float = 0.0) -> list[dict]:
     """Per policy step: median and largest (over envs) joint difference of Warp from C MuJoCo, and of C MuJoCo from
     itself started 1e-6 rad apart (rad)."""
-    from pchc_rsl.envs.physics_warp import WarpMuJoCo
+    from pchc_rsl.envs.physics.warp_mujoco import WarpMuJoCo
 
     cfg = task_config(task)
     cfg.num_envs, cfg.seed, cfg.device, cfg.env.physics = num_envs, seed, "cpu", "mujoco"

@@ -74,7 +74,7 @@ def main(argv: list[str] | None = None) -> None:
 
         videos = []
         if args.video:
-            from pchc_rsl.envs.g1_render import RenderingUnavailable
+            from pchc_rsl.envs.g1.render import RenderingUnavailable
             from pchc_rsl.viewers.recording import write_eval_videos
 
             os.makedirs(args.output, exist_ok=True)

@@ -65,7 +65,7 @@ def main(argv: list[str] | None = None) -> None:
         raise SystemExit("pchc-play: --viewer shows the policy live; --video writes a file instead: pass one of them.")
     if args.video is not None and not has_display():
         os.environ.setdefault("MUJOCO_GL", "egl")  # headless offscreen rendering; read when mujoco is imported
-    from pchc_rsl.envs.g1_render import RenderingUnavailable
+    from pchc_rsl.envs.g1.render import RenderingUnavailable
     from pchc_rsl.viewers.web import WebViewerUnavailable
 
     try:

@@ -121,7 +121,7 @@ def evenly_spaced_preferences(count: int) -> list[tuple[float, float]]:
 
 def evaluation_preset(cfg, push_preset: str, evaluation: TaskEvaluation):
     """A copy of a task config for evaluation: no randomisation, no noise, no curriculum, the preset's pushes."""
-    from pchc_rsl.envs.g1_config import PushConfig
+    from pchc_rsl.envs.g1.config import PushConfig
 
     cfg = copy.deepcopy(cfg)
     env = cfg.env

@@ -17,6 +17,7 @@ from rsl_rl.utils import resolve_callable
 from pchc_rsl.configs import TaskConfig, task_config
 from pchc_rsl.configs.base import ACTOR_CLASSES, apply_saved
 from pchc_rsl.preference import LEGACY_ROUTING_SCALE
+from pchc_rsl.training.moved_modules import with_current_names
 from pchc_rsl.runners import PCHCRunner
 from pchc_rsl.utils.distributed import bind_local_gpu, world
 from pchc_rsl.utils.files import atomic_write
@@ -62,7 +63,9 @@ def _write_json(path: str, data: dict) -> None:
 
 def restore_config(saved: dict) -> TaskConfig:
     """The TaskConfig a checkpoint was trained with (its saved ``config`` dict), rebuilt on the task's dataclasses:
-    env, models, algorithm, runner, num_envs, seed, device and fixed preference."""
+    env, models, algorithm, runner, num_envs, seed, device and fixed preference. Functions and classes it names
+    from modules that have moved since it was saved are named where they are now."""
+    saved = with_current_names(saved)
     cfg = task_config(saved["task"])
     apply_saved(cfg.runner, saved["runner"])
     apply_saved(cfg.env, saved["env"])
@@ -95,8 +98,9 @@ def for_running(cfg: TaskConfig) -> TaskConfig:
 
 
 def saved_config(path: str, loaded: dict) -> dict:
-    """The resolved config pchc-train stored in a loaded checkpoint; ValueError naming the file if there is none."""
+    """The resolved config pchc-train stored in a loaded checkpoint, with moved modules named where they are now;
+    ValueError naming the file if there is none."""
     config = loaded.get("config") or {}
     if "task" not in config:
         raise ValueError(f"{path} has no saved task config; was it written by pchc-train?")
-    return config
+    return with_current_names(config)

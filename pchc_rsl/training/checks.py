@@ -49,7 +49,7 @@ def check_physics(backend: str | None) -> None:
     """ValueError unless the G1 physics backend exists and is installed (None: the task has one physics)."""
     if backend is None:
         return
-    from pchc_rsl.envs.physics_backend import BACKENDS
+    from pchc_rsl.envs.physics.backend import BACKENDS
 
     if backend not in BACKENDS:
         raise ValueError(f"env.physics must be one of {', '.join(BACKENDS)}, got {backend!r}.")

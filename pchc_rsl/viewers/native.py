@@ -90,7 +90,7 @@ def run_viewer(env, policy, preference, seconds: float | None) -> int:
     import mujoco
     import torch
 
-    from pchc_rsl.envs.g1_render import add_push_arrow, visual_model
+    from pchc_rsl.envs.g1.render import add_push_arrow, visual_model
     from pchc_rsl.viewers.overlay import live_metrics, preference_row
 
     model = visual_model(env)

@@ -29,7 +29,7 @@ def record_checkpoint_video(checkpoint: str, preferences, path: str, args, prog:
 
         renderer, dt = ToyPlot(env, args.width, args.height), 1.0 / TOY_STEPS_PER_SECOND
     else:
-        from pchc_rsl.envs.g1_render import G1Renderer
+        from pchc_rsl.envs.g1.render import G1Renderer
 
         renderer, dt = G1Renderer(env, args.width, args.height), env.dt
     seconds = args.seconds if args.seconds is not None else env.max_episode_length * dt
@@ -77,7 +77,7 @@ def write_eval_videos(checkpoints: list[str], preferences, args) -> list[str]:
     """pchc-eval --video: the tiled video of each checkpoint at the evaluated preferences, next to the tables.
 
     Called before the evaluation, so that a headless run can still choose MUJOCO_GL=egl before mujoco loads.
-    RenderingUnavailable (from pchc_rsl.envs.g1_render) without an OpenGL context."""
+    RenderingUnavailable (from pchc_rsl.envs.g1.render) without an OpenGL context."""
     if not has_display():
         os.environ.setdefault("MUJOCO_GL", "egl")
     video_args = argparse.Namespace(seed=args.seed, seconds=args.episode_length, push_every=None, width=320,

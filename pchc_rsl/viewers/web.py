@@ -128,7 +128,7 @@ class WebViewer:
         if self.is_g1:
             import mujoco
 
-            from pchc_rsl.envs.g1_render import visual_model
+            from pchc_rsl.envs.g1.render import visual_model
 
             self.plot = None
             self._build_gui()  # the controls go out before the meshes, which take long to reach a browser
@@ -218,7 +218,7 @@ class WebViewer:
         return changed
 
     def _push(self, strength: str, direction: str) -> None:
-        from pchc_rsl.envs.g1_robot_state import yaw_of
+        from pchc_rsl.envs.g1.robot_state import yaw_of
 
         speed = self.pushes[strength][0] if strength in self.pushes else None
         offset = PUSH_DIRECTIONS[direction]

@@ -14,9 +14,9 @@ from dataclasses import dataclass
 
 import torch
 
-from pchc_rsl.envs.g1_env import G1Env, G1EnvConfig
-from pchc_rsl.envs.g1_metrics import ratio
-from pchc_rsl.envs.physics_backend import physics_device
+from pchc_rsl.envs.g1.env import G1Env, G1EnvConfig
+from pchc_rsl.envs.g1.metrics import ratio
+from pchc_rsl.envs.physics.backend import physics_device
 
 STAND_HEIGHT = 0.7
 FALL_HEIGHT = 0.5

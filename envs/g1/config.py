@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from pchc_rsl.envs.warp_settings import WarpSettings
+from pchc_rsl.envs.physics.warp_settings import WarpSettings
 
 
 @dataclass

@@ -6,7 +6,7 @@ import torch
 
 from rsl_rl.utils import resolve_callable
 
-from pchc_rsl.envs.g1_config import RewardTerm
+from pchc_rsl.envs.g1.config import RewardTerm
 
 
 class RewardGroups:

@@ -19,16 +19,16 @@ from tensordict import TensorDict
 
 from rsl_rl.env import VecEnv
 
-from pchc_rsl.envs.commanded_path import CommandedPath, rotate
-from pchc_rsl.envs.g1_config import G1EnvConfig, PushConfig, RandomizationConfig, RewardTerm
-from pchc_rsl.envs.g1_contacts import FootContacts, median_from_histogram
-from pchc_rsl.envs.g1_metrics import EpisodeSums, larger_over_smaller, ratio
-from pchc_rsl.envs.g1_observations import ObservationBuffers
-from pchc_rsl.envs.g1_pushes import Pushes
-from pchc_rsl.envs.g1_randomization import model_variants
-from pchc_rsl.envs.g1_robot_state import RobotState
-from pchc_rsl.envs.physics_backend import make_physics, physics_device
-from pchc_rsl.envs.reward_groups import RewardGroups
+from pchc_rsl.envs.g1.commanded_path import CommandedPath, rotate
+from pchc_rsl.envs.g1.config import G1EnvConfig, PushConfig, RandomizationConfig, RewardTerm
+from pchc_rsl.envs.g1.contacts import FootContacts, median_from_histogram
+from pchc_rsl.envs.g1.metrics import EpisodeSums, larger_over_smaller, ratio
+from pchc_rsl.envs.g1.observations import ObservationBuffers
+from pchc_rsl.envs.g1.pushes import Pushes
+from pchc_rsl.envs.g1.randomization import model_variants
+from pchc_rsl.envs.g1.robot_state import RobotState
+from pchc_rsl.envs.physics.backend import make_physics, physics_device
+from pchc_rsl.envs.g1.reward_groups import RewardGroups
 from pchc_rsl.preference import EnvPreferences
 from pchc_rsl.robots.g1.constants import STANDING_HEIGHT, holding_gains
 from pchc_rsl.robots.g1.model import build_g1_model, default_joint_positions
@@ -237,7 +237,7 @@ class G1Env(VecEnv):
     def privileged_parts(self) -> list[tuple[str, torch.Tensor]]:
         """The critic's extra state by quantity: base velocity and height, foot contacts, the push and the deviation
         from it (with ``critic_push_timing`` the push's timing, with ``critic_command_state`` the state the task's
-        holds read). Names say how the left-right mirror acts on each (envs/g1_symmetry.py)."""
+        holds read). Names say how the left-right mirror acts on each (envs/g1/symmetry.py)."""
         active = self.pushes.active.float().unsqueeze(-1)
         parts = [
             ("base_lin_vel", self.robot.base_lin_vel),

@@ -14,7 +14,7 @@ class FootContacts:
     At a touchdown the foot's displacement from where it last touched the ground (its lift-off point) is its step,
     ``step_vector`` (forward along the base heading, lateral), and ``stride`` its length (0 where no foot touched
     down). ``stance_step`` holds a foot's step for as long as that stance lasts (0 in the air): the paper's
-    I_contact ||p_current - p_last_contact|| read per step (see g1_rewards.stride)."""
+    I_contact ||p_current - p_last_contact|| read per step (see rewards.stride)."""
 
     def __init__(self, num_envs: int, dt: float, force_threshold: float, device: str = "cpu") -> None:
         self.dt, self.force_threshold = dt, force_threshold

@@ -8,7 +8,7 @@ driver Warp sees no CUDA device at all and the first allocation fails with "Inva
 from __future__ import annotations
 
 TESTED_MUJOCO_WARP = ("4.0.0",)
-"""mujoco-warp versions this project is tested with (physics_warp.py reads a private helper of it)."""
+"""mujoco-warp versions this project is tested with (warp_mujoco.py reads a private helper of it)."""
 
 GRAPH_MIN_VERSION = (12, 4)
 """CUDA driver and toolkit needed for conditional CUDA graphs (the solver's early exit inside a captured step)."""

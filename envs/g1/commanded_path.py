@@ -1,6 +1,6 @@
 """The path a commanded twist (forward, sideways, yaw rate) takes a body along, integrated exactly per step.
 
-Both the reference of the disturbance objective (envs/g1_pushes.py) and the walker's position hold follow it: a
+Both the reference of the disturbance objective (envs/g1/pushes.py) and the walker's position hold follow it: a
 robot that does as told stays on it, turning included.
 """
 

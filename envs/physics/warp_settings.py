@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from pchc_rsl.utils.physics_overflow import PhysicsOverflow  # noqa: F401 - what physics_warp.py raises
+from pchc_rsl.utils.physics_overflow import PhysicsOverflow  # noqa: F401 - what warp_mujoco.py raises
 
 
 @dataclass

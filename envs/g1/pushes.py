@@ -13,9 +13,9 @@ import math
 
 import torch
 
-from pchc_rsl.envs.commanded_path import arc_step, rotate
-from pchc_rsl.envs.g1_config import PushConfig
-from pchc_rsl.envs.g1_robot_state import RobotState, yaw_of
+from pchc_rsl.envs.g1.commanded_path import arc_step, rotate
+from pchc_rsl.envs.g1.config import PushConfig
+from pchc_rsl.envs.g1.robot_state import RobotState, yaw_of
 
 
 class Pushes:
@@ -106,7 +106,7 @@ class Pushes:
 
     def advance_reference(self, commands: torch.Tensor) -> None:
         """Move the reference by one policy step of the commanded twist [N, (forward, sideways, yaw rate)], along
-        the arc it takes a body (envs/commanded_path.py)."""
+        the arc it takes a body (envs/g1/commanded_path.py)."""
         v, turn = commands[:, :2], commands[:, 2] * self.dt
         if not self.cfg.reference_turns:
             turn = torch.zeros_like(turn)

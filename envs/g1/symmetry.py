@@ -1,5 +1,5 @@
 """Left-right mirror of a G1Env's observations and actions: rsl-rl's symmetry extension calls ``augment_with_mirror``
-(``symmetry_cfg.data_augmentation_func = "pchc_rsl.envs.g1_symmetry:augment_with_mirror"``).
+(``symmetry_cfg.data_augmentation_func = "pchc_rsl.envs.g1.symmetry:augment_with_mirror"``).
 
 Every group is a signed permutation of its columns (robots/g1/symmetry.py for the rules): joints swap sides, roll
 and yaw joints change sign, polar vectors negate y, the angular velocity negates x and z, the command (v_x, v_y,
@@ -19,7 +19,7 @@ from pchc_rsl.robots.g1.symmetry import joint_mirror
 _AXIAL, _POLAR, _COMMAND = [-1.0, 1.0, -1.0], [1.0, -1.0, 1.0], [1.0, -1.0, -1.0]
 
 QUANTITY_MIRROR = {
-    # policy frame (envs/g1_observations.frame_layout)
+    # policy frame (envs/g1/observations.py: frame_layout)
     "base_ang_vel": _AXIAL,
     "projected_gravity": _POLAR,
     "joint_pos_minus_default": "joints",

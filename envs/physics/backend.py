@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import mujoco
 
-from pchc_rsl.envs.warp_settings import WarpSettings
+from pchc_rsl.envs.physics.warp_settings import WarpSettings
 
 BACKENDS = ("mujoco", "warp")
 
@@ -21,9 +21,9 @@ def make_physics(backend: str, models: list[mujoco.MjModel], num_envs: int, subs
     """BatchedMuJoCo (threads: native threads stepping the batch) or WarpMuJoCo on ``device`` with ``warp``'s
     buffers and solver settings."""
     if backend == "warp":
-        from pchc_rsl.envs.physics_warp import WarpMuJoCo
+        from pchc_rsl.envs.physics.warp_mujoco import WarpMuJoCo
 
         return WarpMuJoCo(models, num_envs, substeps, device, with_body_forces=with_body_forces, settings=warp)
-    from pchc_rsl.envs.physics import BatchedMuJoCo
+    from pchc_rsl.envs.physics.batched_mujoco import BatchedMuJoCo
 
     return BatchedMuJoCo(models, num_envs, substeps, num_threads, with_body_forces=with_body_forces)

@@ -1,5 +1,5 @@
 """Batched MuJoCo Warp: the whole batch on one device (a GPU, or Warp's slow CPU device), behind BatchedMuJoCo's
-interface (``physics.py``).
+interface (``batched_mujoco.py``).
 
 The env reads torch views of Warp's own arrays (``wp.to_torch``: no copies), so observations and rewards stay on
 the device. Per-env physical randomisation keeps its bounded set of model variants: every model field in which the
@@ -25,9 +25,9 @@ import mujoco
 import numpy as np
 import torch
 
-from pchc_rsl.envs.warp_device import (TESTED_MUJOCO_WARP, cuda_graph_problem, mujoco_warp_version_note,
+from pchc_rsl.envs.physics.warp_device import (TESTED_MUJOCO_WARP, cuda_graph_problem, mujoco_warp_version_note,
                                        require_warp_cuda)
-from pchc_rsl.envs.warp_settings import WarpSettings
+from pchc_rsl.envs.physics.warp_settings import WarpSettings
 from pchc_rsl.utils.physics_overflow import PhysicsOverflow
 
 try:
@@ -370,8 +370,8 @@ def _round_up(value: int, to: int = 16) -> int:
 
 
 def _variants(models: list[mujoco.MjModel]) -> list[mujoco.MjModel]:
-    """The distinct models, in order; env i must use variant i mod V (as g1_randomization.model_variants makes)."""
+    """The distinct models, in order; env i must use variant i mod V (as envs/g1/randomization.py: model_variants makes)."""
     variants = list({id(m): m for m in models}.values())
     if any(models[i] is not variants[i % len(variants)] for i in range(len(models))):
-        raise ValueError("WarpMuJoCo needs env i to use model variant i mod V (see g1_randomization.py).")
+        raise ValueError("WarpMuJoCo needs env i to use model variant i mod V (see envs/g1/randomization.py).")
     return variants

@@ -1,6 +1,6 @@
 """Batched C MuJoCo: N copies of one model stepped together on native threads (mujoco.rollout, GIL released).
 
-The interface an environment uses, shared with the MuJoCo Warp backend (``physics_warp.py``): torch views of the
+The interface an environment uses, shared with the MuJoCo Warp backend (``warp_mujoco.py``): torch views of the
 latest joint state, of every substep's sensors and joint velocities, and of the external body forces; ``step`` with
 a held control, ``set_qpos_qvel`` to reset some envs, ``sanitize`` to clear diverged ones. Here the views share
 memory with the numpy buffers that mujoco.rollout fills (float64, on the CPU).

@@ -7,7 +7,7 @@ import copy
 import mujoco
 import numpy as np
 
-from pchc_rsl.envs.g1_config import RandomizationConfig
+from pchc_rsl.envs.g1.config import RandomizationConfig
 
 
 def model_variants(model: mujoco.MjModel, cfg: RandomizationConfig, num_envs: int,
