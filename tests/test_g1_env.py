@@ -190,7 +190,7 @@ def test_stride_reward_gated_by_average_speed_reads_the_averaged_velocity_not_th
     env.feet.stance_step[:] = torch.tensor([[0.3, 0.0], [0.0, 0.0]])
     env.commands[:] = torch.tensor([0.5, 0.0, 0.0])
     env.robot.base_lin_vel = torch.tensor([[0.8, 0.0, 0.0], [0.5, 0.0, 0.0], [0.5, 0.0, 0.0]])
-    env.velocity_average = torch.tensor([[0.5, 0.0, 0.0], [0.6, 0.0, 0.0], [0.5, 0.2, 0.0]])
+    env.command.velocity_average = torch.tensor([[0.5, 0.0, 0.0], [0.6, 0.0, 0.0], [0.5, 0.2, 0.0]])
     expected = torch.tensor([0.3, 0.3 * math.exp(-1.0), 0.3 * math.exp(-4.0)])
     torch.testing.assert_close(g1_rewards.stride(env, average_speed_std=0.1), expected)
 
@@ -205,7 +205,7 @@ def test_stride_reward_at_the_commanded_length_scales_slower_and_faster_steps_al
     env.feet.stance_step[:] = torch.tensor([[[0.3, 0.0], [0.0, 0.0]]] * 4 + [[[0.0, 0.2], [0.0, 0.0]]])
     env.commands[:] = torch.tensor([[0.5, 0, 0]] * 4 + [[0.0, 0.3, 0]])
     env.robot.base_lin_vel = torch.full((5, 3), 0.5)  # the instantaneous velocity is not read
-    env.velocity_average = torch.tensor([[0.5, 0.0, 0.0], [0.6, 0.1, 0.0], [0.4, 0.0, 0.0], [0.0, 0.0, 0.0],
+    env.command.velocity_average = torch.tensor([[0.5, 0.0, 0.0], [0.6, 0.1, 0.0], [0.4, 0.0, 0.0], [0.0, 0.0, 0.0],
                                          [0.0, 0.2, 0.0]])
     reward = g1_rewards.stride(env, along_command=True, commanded_length=True)
     torch.testing.assert_close(reward, torch.tensor([0.3, 0.25, 0.375, 0.6, 0.3]))
@@ -218,7 +218,7 @@ def test_stride_reward_gated_by_path_pays_less_the_further_the_base_is_from_its_
     env = make_walk_env(num_envs=3)
     env.feet.stance_step[:] = torch.tensor([[0.3, 0.0], [0.0, 0.0]])
     env.commands[:] = torch.tensor([0.5, 0.0, 0.0])
-    env.commanded_path.position = torch.tensor([[1.0, 2.0], [1.0, 2.0], [1.0, 2.0]])
+    env.command.path.position = torch.tensor([[1.0, 2.0], [1.0, 2.0], [1.0, 2.0]])
     base_pos = env.robot.base_pos.clone()
     base_pos[:, :2] = torch.tensor([[1.0, 2.0], [1.25, 2.0], [1.0, 2.5]])
     env.robot.base_pos = base_pos
@@ -230,10 +230,10 @@ def test_action_delay_holds_the_previous_target_for_the_first_substeps():
     """env.action_delay_s (0.01, 0.01) on the fast physics (5 ms substeps): 2 of the 4 substeps hold the old
     target; the physics receives one control per substep."""
     env = make_walk_env(num_envs=2, action_delay_s=(0.01, 0.01))
-    assert env.action_delay.tolist() == [2, 2]
+    assert env.action_delay.substeps.tolist() == [2, 2]
     previous = env.joint_targets.clone()
     target = previous + 0.1
-    control = env._delayed_control(target)
+    control = env.action_delay.control(target, previous)
     assert control.shape == (2, env.cfg.decimation, env.num_actions)
     torch.testing.assert_close(control[:, :2], previous.unsqueeze(1).expand(2, 2, -1))
     torch.testing.assert_close(control[:, 2:], target.unsqueeze(1).expand(2, 2, -1))
@@ -248,7 +248,7 @@ def test_action_delay_is_seen_in_the_physics():
     """A delayed env's joints answer a new target later than an undelayed one's: after one step the undelayed
     knee has moved further towards it (same start, same action)."""
     env = make_walk_env(num_envs=2, action_delay_s=(0.0, 0.02), initial_joint_noise=0.0)
-    env.action_delay[:] = torch.tensor([0, 4])  # env 1 holds the old target for the whole step
+    env.action_delay.substeps[:] = torch.tensor([0, 4])  # env 1 holds the old target for the whole step
     knee = env.cfg.joints.index("left_knee_joint")
     start = env.robot.joint_pos[:, knee].clone()
     action = torch.zeros(2, env.num_actions)
@@ -390,7 +390,7 @@ def test_velocity_average_is_an_exponential_average_of_the_base_velocity_and_yaw
         yaw = env.robot.yaw.clone()
         velocity = torch.cat([env.robot.base_lin_vel[:, :2], (turn / env.dt).unsqueeze(-1)], dim=-1)
         expected += alpha * (velocity - expected)
-    torch.testing.assert_close(env.velocity_average, expected, atol=1e-5, rtol=1e-4)
+    torch.testing.assert_close(env.command.velocity_average, expected, atol=1e-5, rtol=1e-4)
     assert expected.abs().max() > 0.01  # the robot moved
     error = ((env.commands[:, 2] - expected[:, 2]) ** 2) / 0.1**2
     torch.testing.assert_close(g1_rewards.track_average_yaw_rate(env, std=0.1), torch.exp(-error), atol=1e-5, rtol=1e-4)
@@ -422,9 +422,9 @@ def test_critic_command_state_adds_the_path_offset_in_the_heading_frame_the_head
     robot = env.robot
     robot.base_pos = robot.base_pos.clone()
     robot.yaw = torch.tensor([math.pi / 2])
-    env.commanded_path.position = robot.base_pos[:, :2] - torch.tensor([[0.3, 0.1]])
-    env.heading_error[:] = 0.05
-    env.velocity_average[:] = torch.tensor([0.4, -0.1, 0.2])
+    env.command.path.position = robot.base_pos[:, :2] - torch.tensor([[0.3, 0.1]])
+    env.command.heading_error[:] = 0.05
+    env.command.velocity_average[:] = torch.tensor([0.4, -0.1, 0.2])
     expected = torch.tensor([0.1, -0.3, 0.05, 0.4, -0.1, 0.2])
     torch.testing.assert_close(env.get_observations()["critic"][0, -6:], expected, atol=1e-6, rtol=0)
 
@@ -545,7 +545,7 @@ def test_gait_metrics_of_a_scripted_walk_and_of_backward_side_taps():
     from pchc_rsl.envs.g1.contacts import median_from_histogram
 
     env = make_walk_env(num_envs=1)
-    env.episode.reset(torch.tensor([0]))
+    env.metrics.reset(torch.tensor([0]))
     dt, K = env.dt, env.cfg.decimation
     stride, speed, duty = 0.6, 0.5, 0.6
     period = stride / speed
@@ -561,9 +561,9 @@ def test_gait_metrics_of_a_scripted_walk_and_of_backward_side_taps():
             touch[0, :, foot] = 100.0 if phase < duty else 0.0
             pos[0, foot, 0] = landed if phase < duty else landed + stride * (phase - duty) / (1 - duty)
         feet.update(touch, pos, torch.tensor([[1.0, 0.0]]))
-        env.episode.add(env.step_metrics())
+        env.metrics.sums.add(env.metrics.step_quantities())
     m = env.episode_metrics(torch.tensor([0]))
-    touchdowns = env.episode.get(torch.tensor([0]))["touchdowns"].item()
+    touchdowns = env.metrics.sums.get(torch.tensor([0]))["touchdowns"].item()
     assert touchdowns in (9, 10)  # 5 cycles of each foot in 6 s, the first touchdown of the second foot at 0.6 s
     assert m["cadence"].item() == pytest.approx(touchdowns / (2 * 6.0))
     assert m["forward_step"].item() == pytest.approx(stride, abs=0.02)
@@ -571,7 +571,7 @@ def test_gait_metrics_of_a_scripted_walk_and_of_backward_side_taps():
     assert m["backward_touchdowns"].item() == 0.0
     assert m["air_time"].item() == pytest.approx((1 - duty) * period, abs=dt + 1e-6)
 
-    env.episode.reset(torch.tensor([0]))
+    env.metrics.reset(torch.tensor([0]))
     feet.reset(torch.tensor([0]), torch.full((1, K, 2), 100.0), torch.zeros(1, 2, 3), 0.03)
     for i in range(40):  # the left foot taps every 4 steps: up 2, down 2, landing back and aside
         up = i % 4 < 2
@@ -580,7 +580,7 @@ def test_gait_metrics_of_a_scripted_walk_and_of_backward_side_taps():
         pos = torch.zeros(1, 2, 3)
         pos[0, 0, :2] = torch.tensor([-0.1, 0.2]) * ((i // 4) + (0 if up else 1))
         feet.update(touch, pos, torch.tensor([[1.0, 0.0]]))
-        env.episode.add(env.step_metrics())
+        env.metrics.sums.add(env.metrics.step_quantities())
     m = env.episode_metrics(torch.tensor([0]))
     assert m["backward_touchdowns"].item() == 100.0
     assert m["forward_step"].item() == pytest.approx(-0.1, abs=1e-5)
@@ -605,11 +605,11 @@ def test_per_foot_gait_heading_and_steering_metrics_of_a_scripted_limping_turn()
     ids = torch.tensor([0])
     dt, K = env.dt, env.cfg.decimation
     assert dt == pytest.approx(0.02)
-    env.episode.reset(ids)
+    env.metrics.reset(ids)
     env.feet.reset(ids, torch.full((1, K, 2), 100.0), torch.zeros(1, 2, 3), 0.03)
     env.commands[:] = torch.tensor([0.0, 0.3, 0.4])
     env.robot.base_lin_vel = torch.tensor([[0.0, 0.25, 0.0]])
-    env.previous_yaw[:] = 3.0
+    env.command.previous_yaw[:] = 3.0
     env.episode_length_buf[:] = 0
     planted = [0.0, 0.0]
     swing_steps, step_length, offset = (15, 10), (0.4, 0.3), (0, 20)
@@ -625,9 +625,10 @@ def test_per_foot_gait_heading_and_steering_metrics_of_a_scripted_limping_turn()
             pos[0, foot, 0] = planted[foot]
         env.feet.update(touch, pos, torch.tensor([[1.0, 0.0]]))
         env.robot.yaw = torch.tensor([math.remainder(3.0 + 0.01 * (i + 1), 2 * math.pi)])
-        env.record_step_metrics()
-    env.episode_origin[:] = torch.tensor([1.0, 2.0])
-    env.episode_start_heading[:] = torch.tensor([0.0, 1.0])
+        env.command.track(env.robot, torch.zeros(1, dtype=torch.bool))
+        env.metrics.sums.add(env.metrics.step_quantities())
+    env.metrics.origin[:] = torch.tensor([1.0, 2.0])
+    env.metrics.start_heading[:] = torch.tensor([0.0, 1.0])
     env.robot.base_pos = torch.tensor([[0.2, 7.0, 0.75]])
     m = {key: value.item() for key, value in env.episode_metrics(ids).items()}
     assert m["air_time_left"] == pytest.approx(0.32) and m["air_time_right"] == pytest.approx(0.22)
@@ -646,7 +647,7 @@ def test_posture_metrics_are_the_episode_means_of_pelvis_height_and_knee_angle()
     deg). The knees are found by name, so a joint reorder cannot hand the metric a hip."""
     env = make_walk_env(num_envs=2)
     ids = torch.tensor([0, 1])
-    env.episode.reset(ids)
+    env.metrics.reset(ids)
     left, right = env.cfg.joints.index("left_knee_joint"), env.cfg.joints.index("right_knee_joint")
     for i in range(10):
         joint_pos = torch.zeros(2, len(env.cfg.joints))
@@ -654,7 +655,7 @@ def test_posture_metrics_are_the_episode_means_of_pelvis_height_and_knee_angle()
         joint_pos[1, left], joint_pos[1, right] = 1.2, 1.6
         env.robot.joint_pos = joint_pos
         env.robot.base_pos = torch.tensor([[0.0, 0.0, 0.76], [0.0, 0.0, 0.76 - 0.02 * i]])
-        env.record_step_metrics()
+        env.metrics.sums.add(env.metrics.step_quantities())
     m = env.episode_metrics(ids)
     assert m["base_height"].tolist() == pytest.approx([0.76, 0.67], abs=1e-6)
     assert m["knee_flexion"].tolist() == pytest.approx([math.degrees(0.67), math.degrees(1.4)], abs=1e-4)
@@ -676,13 +677,13 @@ def test_heading_error_is_the_turn_against_the_commanded_turn_since_the_command(
     for _ in range(20):
         env.step(torch.zeros(2, env.num_actions))
     expected = torch.remainder(yaw() - start - 0.5 * 20 * env.dt + math.pi, 2 * math.pi) - math.pi
-    torch.testing.assert_close(env.heading_error.double(), expected, atol=1e-4, rtol=0)
-    assert env.heading_error.abs().min() > 0.15
-    torch.testing.assert_close(g1_rewards.heading_hold(env, std=0.3), torch.exp(-env.heading_error**2 / 0.09))
+    torch.testing.assert_close(env.command.heading_error.double(), expected, atol=1e-4, rtol=0)
+    assert env.command.heading_error.abs().min() > 0.15
+    torch.testing.assert_close(g1_rewards.heading_hold(env, std=0.3), torch.exp(-env.command.heading_error**2 / 0.09))
     env.cfg.command_resample_s = (0.02, 0.02)
-    env.command_countdown[:] = 1
-    env._resample_due_commands()
-    assert (env.heading_error == 0).all()
+    env.command.countdown[:] = 1
+    env.command.resample_due(env.robot)
+    assert (env.command.heading_error == 0).all()
 
 
 def test_commands_are_resampled_within_an_episode_with_standing_and_straight_shares():
@@ -692,9 +693,9 @@ def test_commands_are_resampled_within_an_episode_with_standing_and_straight_sha
                         zero_yaw_rate_probability=0.25, single_axis_probability=0.0)
     seen, draws = [], torch.zeros(256)
     for _ in range(400):
-        countdown = env.command_countdown.clone()
-        env._resample_due_commands()
-        drew = env.command_countdown > countdown  # a new command restarts the countdown
+        countdown = env.command.countdown.clone()
+        env.command.resample_due(env.robot)
+        drew = env.command.countdown > countdown  # a new command restarts the countdown
         draws += drew.float()
         seen.append(env.commands[drew])
     drawn = torch.cat(seen)
@@ -713,7 +714,7 @@ def test_single_axis_commands_move_one_axis_alone_evenly_over_the_axes():
     axis alone: a uniform draw is never exactly 0, and a zeroed yaw rate leaves v_x and v_y."""
     env = make_walk_env(num_envs=1, zero_command_probability=0.2, zero_yaw_rate_probability=0.25,
                         single_axis_probability=0.3)
-    drawn = env.sample_commands(20_000)
+    drawn = env.command.draw(20_000)
     moving = drawn != 0
     single = moving.sum(-1) == 1
     assert single.float().mean().item() == pytest.approx(0.8 * 0.3, abs=0.015)
@@ -726,7 +727,7 @@ def test_single_axis_commands_move_one_axis_alone_evenly_over_the_axes():
     standing = (~moving).all(-1).float().mean().item()
     assert standing == pytest.approx(0.2, abs=0.015)
     env.cfg.single_axis_probability = 0.0
-    assert (env.sample_commands(20_000) != 0).sum(-1).eq(1).sum() == 0
+    assert (env.command.draw(20_000) != 0).sum(-1).eq(1).sum() == 0
 
 
 def test_single_stance_pays_walking_not_hopping_shuffling_or_standing():
@@ -851,18 +852,18 @@ def test_position_error_is_the_base_against_where_the_commands_take_it_since_the
         env.step(torch.zeros(2, env.num_actions))
     commanded = 0.5 * 20 * env.dt * torch.stack([start_yaw.cos(), start_yaw.sin()], -1)
     expected = env.physics.qpos[:, :2].double() - start - commanded
-    error = env.commanded_path.error(env.robot.base_pos[:, :2])
+    error = env.command.path.error(env.robot.base_pos[:, :2])
     torch.testing.assert_close(error.double(), expected, atol=1e-4, rtol=0)
     assert (error.norm(dim=-1) > 0.1).all()
     by_hand = torch.exp(-(expected.float() ** 2).sum(-1) / 0.2**2)
     torch.testing.assert_close(g1_rewards.position_hold(env, std=0.2), by_hand, atol=1e-4, rtol=0)
     push_now(env)
     env.step(torch.zeros(2, env.num_actions))
-    assert env.commanded_path.error(env.robot.base_pos[:, :2]).abs().max() < 1e-6
+    assert env.command.path.error(env.robot.base_pos[:, :2]).abs().max() < 1e-6
     env.pushes.window[:] = 0
     env.step(torch.zeros(2, env.num_actions))
-    assert (env.commanded_path.error(env.robot.base_pos[:, :2]).norm(dim=-1) > 0.005).all()
+    assert (env.command.path.error(env.robot.base_pos[:, :2]).norm(dim=-1) > 0.005).all()
     env.cfg.command_resample_s = (0.02, 0.02)
-    env.command_countdown[:] = 1
-    env._resample_due_commands()
-    assert env.commanded_path.error(env.robot.base_pos[:, :2]).abs().max() < 1e-6
+    env.command.countdown[:] = 1
+    env.command.resample_due(env.robot)
+    assert env.command.path.error(env.robot.base_pos[:, :2]).abs().max() < 1e-6

@@ -147,7 +147,7 @@ def test_fall_recovery_energy_is_power_per_phase_and_overall_lies_between():
     env = make_env(num_envs=1)
     env.step(torch.zeros(1, env.num_actions))
     dt = env.dt
-    sums = env.episode.sums
+    sums = env.metrics.sums.sums
     sums["energy_recovery"][:] = 743.0 * 100 * dt  # 100 steps at 743 J/s
     sums["energy_standing"][:] = 417.0 * 300 * dt  # 300 steps at 417 J/s
     sums["steps_recovery"][:], sums["steps_standing"][:] = 100, 300

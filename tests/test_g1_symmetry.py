@@ -115,8 +115,8 @@ def test_the_holds_state_of_a_mirrored_walker_is_the_mirror():
     env = make_walk_env(num_envs=2, randomization=_off(), observation_noise=0.0, push=_no_push(),
                         action_delay_s=(0.0, 0.0), command_resample_s=None, critic_command_state=True)
     mirror = _make_the_second_robot_the_mirror_of_the_first(env)
-    env.commanded_path.restart(torch.ones(2, dtype=torch.bool), env.robot.base_pos[:, :2], env.robot.yaw)
-    env.heading_error[:], env.velocity_average[:] = 0.0, 0.0
+    env.command.path.restart(torch.ones(2, dtype=torch.bool), env.robot.base_pos[:, :2], env.robot.yaw)
+    env.command.heading_error[:], env.command.velocity_average[:] = 0.0, 0.0
     generator = torch.Generator().manual_seed(1)
     for _ in range(50):
         action = 0.3 * torch.randn(1, env.num_actions, generator=generator)

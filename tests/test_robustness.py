@@ -30,7 +30,7 @@ def test_condition_overrides_reach_the_evaluated_env(walk_checkpoint):
     config = saved_config(walk_checkpoint, load_checkpoint(walk_checkpoint))
     conditions = {c.name: c.overrides for c in default_conditions(config["task"])}
     env = make_env(evaluation_config(config, "mild", 3, 0, conditions["latency 20 ms"]))
-    assert env.action_delay.tolist() == [4, 4, 4]
+    assert env.action_delay.substeps.tolist() == [4, 4, 4]
     nominal = build_g1_model(env.cfg.joints, env.cfg.timestep)
     floor, pelvis = nominal.geom("floor").id, nominal.body("pelvis").id
     for name, check in (

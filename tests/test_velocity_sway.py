@@ -20,7 +20,7 @@ class SwayingEnv:
     def __init__(self):
         self.commands = torch.zeros(1, 3)
         self.robot = SimpleNamespace(base_lin_vel=torch.zeros(1, 3))
-        self.velocity_average = torch.zeros(1, 3)
+        self.command = SimpleNamespace(velocity_average=torch.zeros(1, 3))
         self.t = 0.0
 
     def set_preference(self, preference):
@@ -36,7 +36,7 @@ class SwayingEnv:
         self.t += self.dt
         phase = math.sin(2 * math.pi * self.t)
         self.robot.base_lin_vel = torch.tensor([[0.5, 0.08 * phase, 0.0]])
-        self.velocity_average = torch.tensor([[0.5, 0.01 * phase, 0.0]])
+        self.command.velocity_average = torch.tensor([[0.5, 0.01 * phase, 0.0]])
         return None, None, None, None
 
 

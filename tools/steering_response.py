@@ -21,7 +21,7 @@ import math
 
 import torch
 
-from pchc_rsl.envs.g1.env import wrap_angle
+from pchc_rsl.envs.g1.commands import wrap_angle
 from pchc_rsl.evaluation import evenly_spaced_preferences, steady_walk
 
 SETTLE_S, MEASURE_S = 1.0, 7.0

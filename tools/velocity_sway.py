@@ -1,5 +1,5 @@
 """How much a walker's base velocity sways within its steps, against the averaged velocity the task's tracking terms
-read (``env.velocity_average``), per preference, walking straight at 0.5 m/s, pushes off.
+read (``env.command.velocity_average``), per preference, walking straight at 0.5 m/s, pushes off.
 
     python tools/velocity_sway.py policies/g1_walk.pt --num-envs 8
 
@@ -32,7 +32,7 @@ def sway(env, policy, preference) -> dict:
             obs, _, _, _ = env.step(policy(obs))
             if k >= settle:
                 instantaneous.append(env.robot.base_lin_vel[:, :2].clone())
-                averaged.append(env.velocity_average[:, :2].clone())
+                averaged.append(env.command.velocity_average[:, :2].clone())
     instantaneous, averaged = torch.stack(instantaneous), torch.stack(averaged)
     return {"speed": instantaneous[..., 0].mean(0), "instantaneous": instantaneous.std(0),
             "averaged": averaged.std(0)}

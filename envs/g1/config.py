@@ -94,7 +94,7 @@ class G1EnvConfig:
     on the spot or straight walk), as an operator's stick often does; drawn uniformly, pure side steps and turns on
     the spot are almost never trained. What it changes: docs/design.md, "Action noise"."""
     velocity_average_s: float = 0.5
-    """Time constant (s) of ``G1Env.velocity_average``, the base's velocity with the gait's sway filtered out."""
+    """Time constant (s) of ``VelocityCommands.velocity_average``, the base's velocity with the gait's sway filtered out."""
     command_resample_s: tuple[float, float] | None = None
     """Draw a new command after a time uniform in this range (s), again and again within an episode, as a robot is
     steered; None: one command per episode, drawn at the reset."""

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import torch
 
 from pchc_rsl.envs.g1.env import G1Env, G1EnvConfig
-from pchc_rsl.envs.g1.metrics import ratio
+from pchc_rsl.envs.g1.metrics import EpisodeMetrics, ratio
 from pchc_rsl.envs.physics.backend import physics_device
 
 STAND_HEIGHT = 0.7
@@ -31,6 +31,58 @@ def host_success(heights: torch.Tensor, stand_height: float = STAND_HEIGHT, fall
     """HoST's rule on one episode's pelvis heights [T]: above stand_height once, never below fall_height after."""
     standing = standing_phase(heights, stand_height)
     return bool(standing.any() and not (standing & (heights < fall_height)).any())
+
+
+class FallRecoveryMetrics(EpisodeMetrics):
+    """Table I per episode beside the walking figures: energy and torque per phase, COM displacement, success."""
+
+    def step_quantities(self) -> dict[str, torch.Tensor]:
+        env = self.env
+        standing = env.reached_standing.float()
+        # mechanical energy this step, J: sum_k sum_j |tau_j dq_j| * timestep over the substeps
+        robot = env.robot
+        energy = (robot.torques_substeps * robot.joint_vel_substeps).abs().sum(dim=(1, 2)) * env.cfg.timestep
+        torque = robot.torques_substeps.abs().sum(-1).mean(-1)  # Nm, summed over joints, mean over substeps
+        return {
+            **super().step_quantities(),
+            "energy_recovery": energy * (1 - standing),
+            "energy_standing": energy * standing,
+            "torque_recovery": torque * (1 - standing),
+            "torque_standing": torque * standing,
+            "steps_recovery": 1 - standing,
+            "steps_standing": standing,
+        }
+
+    def of_episodes(self, env_ids: torch.Tensor) -> dict[str, torch.Tensor]:
+        """Table I per episode. Energy: mean mechanical power sum_j |tau_j dq_j| in J/s, overall and in each phase
+        (so, as in the paper's table, the overall figure lies between the phases'); torque: mean over the steps of
+        each phase of sum_j |tau_j| (Nm); COM displacement: the whole-body COM's largest horizontal distance from
+        its pre-push position within the window after each push, averaged over pushes (m); HoST success. Also
+        ``push_deviation``, the same for the pelvis: what r_disturb's position term charges, beside the paper's COM
+        figure, since the two need not follow each other (the upper body can move the COM while the pelvis holds)."""
+        env = self.env
+        s = self.sums.get(env_ids)
+        dt = env.dt
+        steps = s["steps_recovery"] + s["steps_standing"]
+        com, pushes = self.push_sums(env_ids, "com_deviation_sum", env.pushes.max_com_deviation)
+        pelvis, _ = self.push_sums(env_ids, "push_deviation_sum", env.pushes.max_deviation)
+        return {
+            "energy_overall": ratio(s["energy_recovery"] + s["energy_standing"], steps * dt),
+            "energy_recovery": ratio(s["energy_recovery"], s["steps_recovery"] * dt),
+            "energy_standing": ratio(s["energy_standing"], s["steps_standing"] * dt),
+            "torque_overall": ratio(s["torque_recovery"] + s["torque_standing"], steps),
+            "torque_recovery": ratio(s["torque_recovery"], s["steps_recovery"]),
+            "torque_standing": ratio(s["torque_standing"], s["steps_standing"]),
+            "com_displacement": ratio(com, pushes),
+            "push_deviation": ratio(pelvis, pushes),
+            "success": env.succeeded(env_ids).float(),
+        }
+
+    def log(self, done_ids: torch.Tensor, finished: dict[str, torch.Tensor], unstable: torch.Tensor) -> dict:
+        log = super().log(done_ids, finished, unstable)
+        log["Curriculum/assist_level"] = self.env._assist.clone()
+        log["Curriculum/action_scale"] = self.env.action_scale[0, 0].clone()
+        return log
 
 
 @dataclass
@@ -59,6 +111,7 @@ class G1FallRecoveryEnv(G1Env):
     """G1Env with prone starts, HoST's curriculum, and Table I metrics."""
 
     uses_body_forces = True
+    metrics_class = FallRecoveryMetrics
 
     def __init__(self, cfg: FallRecoveryConfig, num_envs: int, device: str = "cpu", seed: int = 0) -> None:
         where = physics_device(cfg.physics, device)  # the reset inside G1Env.__init__ uses what is set here
@@ -164,51 +217,6 @@ class G1FallRecoveryEnv(G1Env):
         if self.cfg.terminate_on_fall:
             return self.fell_after_standing.clone()
         return torch.zeros(self.num_envs, dtype=torch.bool, device=self.device)
-
-    def step_metrics(self) -> dict[str, torch.Tensor]:
-        standing = self.reached_standing.float()
-        # mechanical energy this step, J: sum_k sum_j |tau_j dq_j| * timestep over the substeps
-        energy = (self.robot.torques_substeps * self.robot.joint_vel_substeps).abs().sum(dim=(1, 2)) * self.cfg.timestep
-        torque = self.robot.torques_substeps.abs().sum(-1).mean(-1)  # Nm, summed over joints, mean over substeps
-        return {
-            **super().step_metrics(),
-            "energy_recovery": energy * (1 - standing),
-            "energy_standing": energy * standing,
-            "torque_recovery": torque * (1 - standing),
-            "torque_standing": torque * standing,
-            "steps_recovery": 1 - standing,
-            "steps_standing": standing,
-        }
-
-    def episode_metrics(self, env_ids: torch.Tensor) -> dict[str, torch.Tensor]:
-        """Table I per episode. Energy: mean mechanical power sum_j |tau_j dq_j| in J/s, overall and in each phase
-        (so, as in the paper's table, the overall figure lies between the phases'); torque: mean over the steps of
-        each phase of sum_j |tau_j| (Nm); COM displacement: the whole-body COM's largest horizontal distance from
-        its pre-push position within the window after each push, averaged over pushes (m); HoST success. Also
-        ``push_deviation``, the same for the pelvis: what r_disturb's position term charges, beside the paper's COM
-        figure, since the two need not follow each other (the upper body can move the COM while the pelvis holds)."""
-        s = self.episode.get(env_ids)
-        dt = self.dt
-        steps = s["steps_recovery"] + s["steps_standing"]
-        com, pushes = self._push_sums(env_ids, "com_deviation_sum", self.pushes.max_com_deviation)
-        pelvis, _ = self._push_sums(env_ids, "push_deviation_sum", self.pushes.max_deviation)
-        return {
-            "energy_overall": ratio(s["energy_recovery"] + s["energy_standing"], steps * dt),
-            "energy_recovery": ratio(s["energy_recovery"], s["steps_recovery"] * dt),
-            "energy_standing": ratio(s["energy_standing"], s["steps_standing"] * dt),
-            "torque_overall": ratio(s["torque_recovery"] + s["torque_standing"], steps),
-            "torque_recovery": ratio(s["torque_recovery"], s["steps_recovery"]),
-            "torque_standing": ratio(s["torque_standing"], s["steps_standing"]),
-            "com_displacement": ratio(com, pushes),
-            "push_deviation": ratio(pelvis, pushes),
-            "success": self.succeeded(env_ids).float(),
-        }
-
-    def _episode_log(self, done_ids: torch.Tensor, finished: dict[str, torch.Tensor], unstable: torch.Tensor) -> dict:
-        log = super()._episode_log(done_ids, finished, unstable)
-        log["Curriculum/assist_level"] = self._assist.clone()
-        log["Curriculum/action_scale"] = self.action_scale[0, 0].clone()
-        return log
 
     # ---------------------------------------------------------------- checkpointed state
     def state_dict(self) -> dict:

@@ -25,14 +25,14 @@ def track_ang_vel_z(env, std: float) -> torch.Tensor:
 
 def track_average_lin_vel_xy(env, std: float) -> torch.Tensor:
     """exp(-||v_cmd_xy - v_avg_xy||^2 / std^2) of the base-frame velocity averaged over the last steps
-    (``env.velocity_average``): a narrow kernel that pays being right on average, which the sway of every step hides
+    (``env.command.velocity_average``): a narrow kernel that pays being right on average, which the sway of every step hides
     from a kernel on the instantaneous velocity."""
-    return torch.exp(-((env.commands[:, :2] - env.velocity_average[:, :2]) ** 2).sum(-1) / std**2)
+    return torch.exp(-((env.commands[:, :2] - env.command.velocity_average[:, :2]) ** 2).sum(-1) / std**2)
 
 
 def track_average_yaw_rate(env, std: float) -> torch.Tensor:
-    """exp(-(w_cmd - w_avg)^2 / std^2) of the yaw rate averaged over the last steps (``env.velocity_average``)."""
-    return torch.exp(-((env.commands[:, 2] - env.velocity_average[:, 2]) ** 2) / std**2)
+    """exp(-(w_cmd - w_avg)^2 / std^2) of the yaw rate averaged over the last steps (``env.command.velocity_average``)."""
+    return torch.exp(-((env.commands[:, 2] - env.command.velocity_average[:, 2]) ** 2) / std**2)
 
 
 def heading_hold(env, std: float) -> torch.Tensor:
@@ -40,15 +40,15 @@ def heading_hold(env, std: float) -> torch.Tensor:
     since the command was set. A tracking kernel on the yaw rate itself barely sees a bias of a few degrees per
     second under the gait's own yaw oscillation; the heading error integrates that bias, so walking straight when
     told to (and turning by as much as told) pays."""
-    return torch.exp(-(env.heading_error**2) / std**2)
+    return torch.exp(-(env.command.heading_error**2) / std**2)
 
 
 def position_hold(env, std: float) -> torch.Tensor:
     """exp(-||e||^2 / std^2) of the position error e: the base against where its commands take a body since the
-    command was set or a push's window closed (``env.commanded_path``). Biases of a few cm/s, which the velocity
+    command was set or a push's window closed (``env.command.path``). Biases of a few cm/s, which the velocity
     kernels barely see, add up in e; so do the lag after each change of command and a drift while told to stand.
     Inside a push's window it pays in full: the disturbance objective, not the task, prices the drift there."""
-    return torch.exp(-(env.commanded_path.error(env.robot.base_pos[:, :2]) ** 2).sum(-1) / std**2)
+    return torch.exp(-(env.command.path.error(env.robot.base_pos[:, :2]) ** 2).sum(-1) / std**2)
 
 
 def flat_orientation(env) -> torch.Tensor:
@@ -191,7 +191,7 @@ def stride(env, along_heading: bool = True, min_command: float = 0.1, speed_std:
     but they add up in the distance from the path. Measured, it does not hold the stride end to its command either
     (docs/design.md, "Action noise"), so the walking config leaves it off.
 
-    ``average_speed_std`` (m/s; None: off) gates the step on the averaged velocity (``env.velocity_average``,
+    ``average_speed_std`` (m/s; None: off) gates the step on the averaged velocity (``env.command.velocity_average``,
     as ``track_average_lin_vel_xy`` reads it): exp(-||v_cmd_xy - v_avg_xy||^2 / average_speed_std^2). The base sways
     sideways with every step (the released walker's sideways velocity has a std of 0.05-0.08 m/s, most at the stride
     end; forward 0.02-0.04; `tools/velocity_sway.py`), so a narrow gate on the instantaneous velocity charges the
@@ -200,7 +200,7 @@ def stride(env, along_heading: bool = True, min_command: float = 0.1, speed_std:
     it off.
 
     ``commanded_length`` pays every step as the step that its cadence makes at the commanded speed, faster or slower:
-    length x |v_cmd| / v, v the averaged velocity (``env.velocity_average``) along the commanded direction, at least
+    length x |v_cmd| / v, v the averaged velocity (``env.command.velocity_average``) along the commanded direction, at least
     half the command. ``at_command_speed`` scales only the faster steps, so a walker unsure of its speed loses pay
     when slow and keeps it when fast; scaled both ways, the pay depends on the cadence alone and a bias either way
     costs the same. Measured alone over 200 iterations, it does not hold the stride end to its command either
@@ -222,7 +222,7 @@ def stride(env, along_heading: bool = True, min_command: float = 0.1, speed_std:
         speed = (env.robot.base_lin_vel[:, :2] * direction).sum(-1)
         reward = reward * (commanded_speed / speed.clamp(min=1e-6)).clamp(max=1.0)
     if commanded_length:
-        speed = (env.velocity_average[:, :2] * direction).sum(-1)
+        speed = (env.command.velocity_average[:, :2] * direction).sum(-1)
         reward = reward * commanded_speed / speed.clamp(min=1e-6).maximum(commanded_speed / 2)
     if speed_std is not None:
         reward = reward * track_lin_vel_xy(env, speed_std)
