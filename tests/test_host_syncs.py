@@ -135,7 +135,7 @@ def test_a_g1_rollout_syncs_once_per_env_step(tmp_path, task, amp, physics):
     where = collections.Counter(reads.where())
     steps = cfg.runner.num_steps_per_env
     per_step = {w: n for w, n in where.items() if n > 1}
-    assert len(per_step) == 1 and next(iter(per_step)).startswith("nonzero at envs/g1/env.py"), where
+    assert len(per_step) == 1 and next(iter(per_step)).startswith("nonzero at g1/env.py"), where
     assert sum(where.values()) <= steps + 2, where  # and once per rollout: the NaN check, the physics report
     assert runner.logger.rewbuffer or runner.logger._finished_steps  # episodes did finish
 
