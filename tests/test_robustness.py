@@ -17,6 +17,10 @@ def test_default_conditions_cover_the_shifts_of_each_task():
     assert "command 0 m/s" in walk and "command 1.0 m/s" in walk and "command 0 m/s" not in fall
     assert walk["latency 20 ms"] == ["env.action_delay_s=0.02,0.02"]
     assert [n for n in walk if n.startswith("push")] == ["push 1 m/s", "push 1.5 m/s", "push 2 m/s"]
+    assert [n for n in walk if n.startswith("force")] == ["force 300-600 N torso/pelvis", "force 600-900 N torso/pelvis",
+                                                         "force 100-300 N legs"]
+    assert [n for n in fall if n.startswith("force")] == ["force 300-600 N torso/pelvis",
+                                                         "force 700-1000 N torso/pelvis"]
 
 
 def test_condition_overrides_reach_the_evaluated_env(walk_checkpoint):
@@ -44,6 +48,13 @@ def test_condition_overrides_reach_the_evaluated_env(walk_checkpoint):
     assert (env.commands == 0).all()
     env = make_env(evaluation_config(config, "mild", 2, 0, conditions["command 1.0 m/s"]))
     assert env.commands[:, 0].tolist() == [1.0, 1.0]
+    env = make_env(evaluation_config(config, "mild", 2, 0, conditions["force 100-300 N legs"]))
+    push = env.cfg.push
+    assert (push.velocity_share, push.force.share, push.force.magnitude, push.force.duration_s) == (
+        0.0, 1.0, (100.0, 300.0), (0.08, 0.08))
+    legs = {env.model.body(b).id for b in ("left_knee_link", "right_knee_link", "left_ankle_roll_link",
+                                            "right_ankle_roll_link")}
+    assert set(env.pushes.force_body_ids.tolist()) == legs and push.interval_s == (3.0, 3.0)
 
 
 def test_robustness_cli_writes_a_row_per_condition_and_preference(walk_checkpoint, tmp_path):

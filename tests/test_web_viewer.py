@@ -145,6 +145,27 @@ def test_the_push_button_pushes_at_the_chosen_strength_and_direction(walk_viewer
 
 
 @needs_g1
+def test_the_push_button_pushes_with_a_force_on_a_preset_body(walk_viewer):
+    """The force-mild preset: 300-600 N for 0.08 s on the torso or the pelvis, forward; the push's window opens
+    and the force acts on that body for four 0.02 s steps, then stops."""
+    env = walk_viewer.env
+    walk_viewer.step()
+    walk_viewer.queue("push", ("force-mild", "forward"))
+    walk_viewer.apply_pending()
+    walk_viewer.step()
+    bodies = {env.model.body(b).id for b in ("torso_link", "pelvis")}
+    assert int(env.pushes.force_body[0]) in bodies and bool(env.pushes.active[0])
+    assert 300.0 <= float(env.pushes.force[0].norm()) <= 600.0
+    applied = env.physics.body_forces[0, :, :3].norm(dim=-1)
+    assert float(applied[int(env.pushes.force_body[0])]) == pytest.approx(float(env.pushes.force[0].norm()), rel=1e-5)
+    for _ in range(3):
+        walk_viewer.step()
+    assert float(env.pushes.force_left_s[0]) == 0.0
+    walk_viewer.step()
+    assert float(env.physics.body_forces[0].abs().sum()) == 0.0
+
+
+@needs_g1
 def test_the_panels_show_rewards_and_gait(walk_viewer):
     for _ in range(10):
         walk_viewer.step()

@@ -43,7 +43,7 @@ def build(task: str, num_envs: int, threads: int):
 
 def measure(task: str, num_envs: int, threads: int, steps: int, repeats: int) -> tuple[float, float]:
     env = build(task, num_envs, threads)
-    bare = BatchedMuJoCo(env.model, num_envs, env.cfg.decimation, threads, with_body_forces=env.uses_body_forces)
+    bare = BatchedMuJoCo(env.model, num_envs, env.cfg.decimation, threads, with_body_forces=True)
     action = torch.zeros(num_envs, env.num_actions)
     ctrl = env.default_joint_pos.double().expand(num_envs, -1).numpy().copy()
     env_times, bare_times = [], []

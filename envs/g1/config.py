@@ -18,13 +18,36 @@ class RewardTerm:
 
 
 @dataclass
+class ForcePushConfig:
+    """Pushes as a hand, a door or a person gives them: a force on one body of the robot over tenths of a second
+    (MuJoCo's xfrc_applied, at the body's centre of mass), which moves the robot and turns it."""
+
+    share: float = 0.0
+    """Weight of force pushes among all pushes, against ``PushConfig.velocity_share``; 0: none."""
+    bodies: dict[str, float] = field(default_factory=lambda: {"torso_link": 1.0, "pelvis": 1.0})
+    """Body name -> weight of being the body pushed."""
+    magnitude: tuple[float, float] = (300.0, 600.0)
+    """The force's magnitude, N, uniform in this range."""
+    duration_s: tuple[float, float] = (0.08, 0.08)
+    """How long the force lasts, s, uniform in this range; a push's impulse is magnitude x duration (a step that the
+    push ends part-way through gets its share of the force, so the impulse is exact)."""
+    vertical: tuple[float, float] = (0.0, 0.0)
+    """The force's vertical part as a share of its magnitude, uniform in this range (negative: down); the horizontal
+    part points in a uniformly random direction."""
+
+
+@dataclass
 class PushConfig:
-    """Velocity impulses on the pelvis at random intervals; the window after each is the paper's 'after-disturb'."""
+    """Pushes at random intervals, velocity kicks on the pelvis or forces on a body (``force``), mixed by their
+    shares; the window after each push's onset is the paper's 'after-disturb'."""
 
     enabled: bool = True
     interval_s: tuple[float, float] = (3.0, 6.0)
     velocity: tuple[float, float] = (0.3, 1.0)
     """Horizontal speed added to the pelvis, m/s, uniform in this range, in a uniformly random direction."""
+    velocity_share: float = 1.0
+    """Weight of velocity kicks among all pushes, against ``force.share``."""
+    force: ForcePushConfig = field(default_factory=ForcePushConfig)
     window_s: float = 1.0
     only_when_standing: bool = False
     """Count down to the next push only while the robot stands (fall recovery's evaluation pushes the stood-up
@@ -94,7 +117,8 @@ class G1EnvConfig:
     on the spot or straight walk), as an operator's stick often does; drawn uniformly, pure side steps and turns on
     the spot are almost never trained. What it changes: docs/design.md, "Action noise"."""
     velocity_average_s: float = 0.5
-    """Time constant (s) of ``VelocityCommands.velocity_average``, the base's velocity with the gait's sway filtered out."""
+    """Time constant (s) of ``VelocityCommands.velocity_average``, the base's velocity with the gait's sway filtered
+    out."""
     command_resample_s: tuple[float, float] | None = None
     """Draw a new command after a time uniform in this range (s), again and again within an episode, as a robot is
     steered; None: one command per episode, drawn at the reset."""

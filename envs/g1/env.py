@@ -29,7 +29,7 @@ from pchc_rsl.envs.g1.deploy_metadata import deploy_metadata
 from pchc_rsl.envs.g1.draws import chance
 from pchc_rsl.envs.g1.metrics import EpisodeMetrics
 from pchc_rsl.envs.g1.observations import ObservationBuffers
-from pchc_rsl.envs.g1.pushes import Pushes
+from pchc_rsl.envs.g1.pushes import Pushes, check_push_config
 from pchc_rsl.envs.g1.randomization import model_variants
 from pchc_rsl.envs.g1.robot_state import RobotState
 from pchc_rsl.envs.g1.reward_groups import RewardGroups
@@ -45,8 +45,6 @@ class G1Env(VecEnv):
     """N G1 robots; see G1EnvConfig. The env's tensors live where its physics runs: on the CPU with C MuJoCo, on
     ``device`` with MuJoCo Warp (``cfg.physics``)."""
 
-    uses_body_forces = False
-    """Tasks that push bodies with external forces (e.g. the fall-recovery assist) set this."""
     metrics_class = EpisodeMetrics
     """The task's episode metrics (a subclass of EpisodeMetrics adds the task's own)."""
 
@@ -64,8 +62,10 @@ class G1Env(VecEnv):
 
         self.model = build_g1_model(cfg.joints, cfg.timestep, held_joints=tuple(cfg.held_joints))
         variants = model_variants(self.model, cfg.randomization, num_envs, self.rng)
+        check_push_config(cfg.push, [self.model.body(i).name for i in range(self.model.nbody)])
+        # external forces on bodies: force pushes, a task's own (the fall-recovery assist), the viewers' push button
         self.physics = make_physics(cfg.physics, variants, num_envs, cfg.decimation, cfg.num_threads, self.device,
-                                    with_body_forces=self.uses_body_forces, warp=cfg.warp)
+                                    with_body_forces=True, warp=cfg.warp)
         dev = self.device
         self.robot = RobotState(self.physics, self.model, cfg.joints)
         self.default_joint_pos = torch.tensor(default_joint_positions(cfg.joints), device=dev)
@@ -82,7 +82,9 @@ class G1Env(VecEnv):
         n = num_envs
         self.rewards = RewardGroups(cfg.rewards, cfg.objective_names, self.dt)
         self.feet = FootContacts(n, self.dt, cfg.contact_force_threshold, dev)
-        self.pushes = Pushes(cfg.push, n, self.dt, self.generator)
+        pushed_bodies = cfg.push.force.bodies if cfg.push.force.share > 0 else {}
+        self.pushes = Pushes(cfg.push, n, self.dt, self.generator,
+                             body_ids={b: self.model.body(b).id for b in pushed_bodies})
         self.observations = ObservationBuffers(n, self.num_actions, cfg.history_length, cfg.amp_window,
                                                cfg.use_command, cfg.observation_noise, self.generator)
         self.actions = torch.zeros(n, self.num_actions, device=dev)
@@ -194,6 +196,7 @@ class G1Env(VecEnv):
         target = self.default_joint_pos + self.action_scale * self.joint_action_weights * self.actions
         self.pushes.apply(self.physics, self.robot, self.commands, self._push_eligible())
         self._before_physics()
+        self.pushes.add_forces(self.physics)
         self.physics.step(self.action_delay.control(target, self.joint_targets).to(self.physics.qpos.dtype))
         self.joint_targets = target
         unstable = self._unstable_envs()
@@ -234,7 +237,10 @@ class G1Env(VecEnv):
         """Called with the envs about to reset, while their finished episode's state is still there."""
 
     def _before_physics(self) -> None:
-        """Set external forces or curricula right before the physics step."""
+        """Set external forces or curricula right before the physics step (the pushes' forces are added after);
+        without a task's own forces, none."""
+        if self.physics.body_forces is not None:
+            self.physics.body_forces.zero_()
 
     def _after_physics(self) -> None:
         """Update task state from the new physics state, before rewards and metrics."""

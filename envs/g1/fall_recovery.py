@@ -110,7 +110,6 @@ class FallRecoveryConfig(G1EnvConfig):
 class G1FallRecoveryEnv(G1Env):
     """G1Env with prone starts, HoST's curriculum, and Table I metrics."""
 
-    uses_body_forces = True
     metrics_class = FallRecoveryMetrics
 
     def __init__(self, cfg: FallRecoveryConfig, num_envs: int, device: str = "cpu", seed: int = 0) -> None:

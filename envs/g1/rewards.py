@@ -25,13 +25,14 @@ def track_ang_vel_z(env, std: float) -> torch.Tensor:
 
 def track_average_lin_vel_xy(env, std: float) -> torch.Tensor:
     """exp(-||v_cmd_xy - v_avg_xy||^2 / std^2) of the base-frame velocity averaged over the last steps
-    (``env.command.velocity_average``): a narrow kernel that pays being right on average, which the sway of every step hides
-    from a kernel on the instantaneous velocity."""
+    (``env.command.velocity_average``): a narrow kernel that pays being right on average, which the sway of every
+    step hides from a kernel on the instantaneous velocity."""
     return torch.exp(-((env.commands[:, :2] - env.command.velocity_average[:, :2]) ** 2).sum(-1) / std**2)
 
 
 def track_average_yaw_rate(env, std: float) -> torch.Tensor:
-    """exp(-(w_cmd - w_avg)^2 / std^2) of the yaw rate averaged over the last steps (``env.command.velocity_average``)."""
+    """exp(-(w_cmd - w_avg)^2 / std^2) of the yaw rate averaged over the last steps
+    (``env.command.velocity_average``)."""
     return torch.exp(-((env.commands[:, 2] - env.command.velocity_average[:, 2]) ** 2) / std**2)
 
 
@@ -200,8 +201,8 @@ def stride(env, along_heading: bool = True, min_command: float = 0.1, speed_std:
     it off.
 
     ``commanded_length`` pays every step as the step that its cadence makes at the commanded speed, faster or slower:
-    length x |v_cmd| / v, v the averaged velocity (``env.command.velocity_average``) along the commanded direction, at least
-    half the command. ``at_command_speed`` scales only the faster steps, so a walker unsure of its speed loses pay
+    length x |v_cmd| / v, v the averaged velocity (``env.command.velocity_average``) along the commanded direction, at
+    least half the command. ``at_command_speed`` scales only the faster steps, so a walker unsure of its speed loses pay
     when slow and keeps it when fast; scaled both ways, the pay depends on the cadence alone and a bias either way
     costs the same. Measured alone over 200 iterations, it does not hold the stride end to its command either
     (docs/design.md, "Action noise"); the walking config pays it, as the released walker trained.

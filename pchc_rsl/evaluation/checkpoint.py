@@ -3,6 +3,8 @@ push preset run; and the env and policy of a checkpoint as pchc-play, the viewer
 
 from __future__ import annotations
 
+import dataclasses
+
 import os
 
 from pchc_rsl.evaluation.presets import TASK_EVALUATION, evaluation_preset
@@ -118,10 +120,15 @@ def _result(name, path, preferences, metrics, counts, evaluation, roles, presets
     """The result of the presets run so far: rows per preference and the Pareto summary."""
     rows = [{"preference": list(lam), "metrics": metrics[lam], "episodes": counts[lam]} for lam in preferences]
     result = {"name": name, "checkpoint": recorded_path(path), "rows": rows,
-              "push_presets": {role: {"preset": preset, "speed_window": evaluation.pushes.get(preset)}
+              "push_presets": {role: {"preset": preset, "push": _preset_record(evaluation.pushes.get(preset))}
                                for role, preset in zip(roles, presets) if role is not None}}
     result["front"] = front_summary(front_points(rows, evaluation), evaluation)
     return result
+
+
+def _preset_record(preset) -> dict | None:
+    """A push preset as plain data for results.json."""
+    return None if preset is None else dataclasses.asdict(preset)
 
 
 def load_policy(path: str, num_envs: int, seed: int, episode_length_s: float | None, push_every: float | None,

@@ -6,6 +6,45 @@ from __future__ import annotations
 import copy
 from dataclasses import dataclass, field
 
+from pchc_rsl.envs.g1.config import ForcePushConfig, PushConfig
+
+TORSO_AND_PELVIS = ("torso_link", "pelvis")
+LEGS = ("left_knee_link", "right_knee_link", "left_ankle_roll_link", "right_ankle_roll_link")
+"""The bodies of the force presets: where a hand or a door meets a robot, and where a kick or an obstacle does."""
+
+
+@dataclass(frozen=True)
+class PushPreset:
+    """One evaluation push, every ``interval_s`` in a uniformly random horizontal direction: a velocity kick of
+    ``speed`` m/s on the pelvis or, with ``force`` (N, a range), a force for ``duration_s`` on one of ``bodies``
+    (equally likely). The after-disturb window lasts ``window_s`` from the push's onset."""
+
+    window_s: float
+    speed: float = 0.0
+    force: tuple[float, float] | None = None
+    duration_s: float = 0.08
+    bodies: tuple[str, ...] = TORSO_AND_PELVIS
+    interval_s: float = 3.0
+
+    def push_config(self) -> PushConfig:
+        """The env's push settings for this preset."""
+        interval = (self.interval_s, self.interval_s)
+        if self.force is None:
+            return PushConfig(interval_s=interval, velocity=(self.speed, self.speed), window_s=self.window_s)
+        force = ForcePushConfig(share=1.0, bodies={b: 1.0 for b in self.bodies}, magnitude=tuple(self.force),
+                                duration_s=(self.duration_s, self.duration_s))
+        return PushConfig(interval_s=interval, velocity_share=0.0, force=force, window_s=self.window_s)
+
+    def describe(self, robot_mass: float) -> str:
+        """What the push is, with its impulse and the speed it gives the whole robot (impulse / mass)."""
+        if self.force is None:
+            return f"kick {self.speed:g} m/s on the pelvis ({self.speed * robot_mass:.0f} N s)"
+        low, high = self.force
+        impulse = (low * self.duration_s, high * self.duration_s)
+        speed = tuple(i / robot_mass for i in impulse)
+        return (f"{low:g}-{high:g} N x {self.duration_s:g} s on {', '.join(self.bodies)}: {impulse[0]:.0f}-"
+                f"{impulse[1]:.0f} N s, {speed[0]:.2f}-{speed[1]:.2f} m/s of the whole robot")
+
 
 @dataclass
 class TaskEvaluation:
@@ -23,8 +62,8 @@ class TaskEvaluation:
     episode_metrics, with the task's config as it is (no evaluation preset): for envs without task metrics."""
     push_presets: list[str] = field(default_factory=lambda: ["mild"])
     """The push presets an evaluation runs, in order (the first one makes the unprefixed metrics)."""
-    pushes: dict[str, tuple[float, float]] = field(default_factory=dict)
-    """Every push preset of the task: name -> (speed m/s, window s); a push every 3 s in a random direction."""
+    pushes: dict[str, PushPreset] = field(default_factory=dict)
+    """Every push preset of the task by name."""
     command: tuple[float, float, float] | None = None
     push_only_when_standing: bool = False
     """Push the robot once it stands (fall recovery), not while it is still on the floor."""
@@ -49,11 +88,17 @@ WALK_EVALUATION = TaskEvaluation(
              "heading_drift_median": "Heading drift, median (deg)", "heading_drift_p90": "Heading drift, p90 (deg)",
              "lateral_drift": "Lateral drift (m)",
              "base_height": "Pelvis height (m)", "knee_flexion": "Knee flexion (deg)",
-             "strong/fall_rate": "Falls, strong pushes (%)"},
+             "strong/fall_rate": "Falls, strong pushes (%)",
+             "force-mild/fall_rate": "Falls, 300-600 N on torso or pelvis (%)",
+             "force-mild/push_deviation": "Traj. deviation, 300-600 N (m)",
+             "force-legs/fall_rate": "Falls, 100-300 N on the legs (%)"},
     front=(("push_deviation", -1.0), ("stride_length", 1.0)),
     reference_point=(-2.0, 0.0),
-    push_presets=["mild", "strong"],
-    pushes={"mild": (0.5, 1.0), "strong": (2.25, 1.0), "mild-v1": (0.5, 1.0), "strong-v1": (1.2, 1.0)},
+    push_presets=["mild", "strong", "force-mild", "force-legs"],
+    pushes={"mild": PushPreset(1.0, speed=0.5), "strong": PushPreset(1.0, speed=2.25),
+            "mild-v1": PushPreset(1.0, speed=0.5), "strong-v1": PushPreset(1.0, speed=1.2),
+            "force-mild": PushPreset(1.0, force=(300.0, 600.0)), "force-strong": PushPreset(1.0, force=(600.0, 900.0)),
+            "force-legs": PushPreset(1.0, force=(100.0, 300.0), bodies=LEGS)},
     command=(0.5, 0.0, 0.0),
     objectives=("disturbance", "stride"),
     # Table II: (trajectory deviation m, avg. stride m); its (1, 0) row is printed (0.10, 0.00), a typo
@@ -74,11 +119,17 @@ FALL_RECOVERY_EVALUATION = TaskEvaluation(
         "mild/com_displacement": "COM displacement (m)",
         "mild/success": "Success, mild pushes (%)",
         "strong/success": "Success, strong pushes (%)",
+        "force-mild/com_displacement": "COM displacement, 300-600 N (m)",
+        "force-mild/success": "Success, 300-600 N (%)",
+        "force-strong/success": "Success, 700-1000 N (%)",
     },
     front=(("energy_overall", -1.0), ("mild/com_displacement", -1.0)),
     reference_point=(-3000.0, -3.0),
-    push_presets=["mild", "strong"],
-    pushes={"mild": (2.25, 3.0), "strong": (2.5, 3.0), "mild-v1": (0.5, 1.0), "strong-v1": (1.2, 1.0)},
+    push_presets=["mild", "strong", "force-mild", "force-strong"],
+    pushes={"mild": PushPreset(3.0, speed=2.25), "strong": PushPreset(3.0, speed=2.5),
+            "mild-v1": PushPreset(1.0, speed=0.5), "strong-v1": PushPreset(1.0, speed=1.2),
+            "force-mild": PushPreset(3.0, force=(300.0, 600.0), duration_s=0.1),
+            "force-strong": PushPreset(3.0, force=(700.0, 1000.0), duration_s=0.1)},
     push_only_when_standing=True,
     paper_note="Table I's energy is in J, ours in J/s (mean power): its points are not drawn.",
     objectives=("energy", "disturbance"),
@@ -100,7 +151,10 @@ PUSH_CALIBRATION = """The presets come from tools/push_sweep.py --calibrate on t
 (docs/evaluation.md, "Push presets"): mild is the speed whose deviation after a push comes closest to the paper's at
 (0.5, 0.5) while 90% of episodes stay up, strong the speed at which the share that stays up comes closest to the
 paper's 75.7%. Fall recovery measures the COM until the next push (3 s), long enough for the robot to settle; the
-1 s window of the v1 presets cut the displacement short. The v1 presets (0.5 and 1.2 m/s, 1 s) remain available."""
+1 s window of the v1 presets cut the displacement short. The v1 presets (0.5 and 1.2 m/s, 1 s) remain available.
+The force presets push as a robot is pushed, by a force over a set time on a body (docs/evaluation.md, "Pushes as
+forces"): 300-600 N for 0.08 s on the torso or pelvis is the level of an external benchmark of G1 walking policies
+(a punch of up to 600 N for 0.08 s); the legs get 100-300 N."""
 
 
 TASK_EVALUATION = {
@@ -121,8 +175,6 @@ def evenly_spaced_preferences(count: int) -> list[tuple[float, float]]:
 
 def evaluation_preset(cfg, push_preset: str, evaluation: TaskEvaluation):
     """A copy of a task config for evaluation: no randomisation, no noise, no curriculum, the preset's pushes."""
-    from pchc_rsl.envs.g1.config import PushConfig
-
     cfg = copy.deepcopy(cfg)
     env = cfg.env
     env.randomization.enabled = False
@@ -130,8 +182,7 @@ def evaluation_preset(cfg, push_preset: str, evaluation: TaskEvaluation):
     env.preference_resample_prob = 0.0
     if push_preset not in evaluation.pushes:
         raise ValueError(f"push preset '{push_preset}' is not one of {', '.join(evaluation.pushes)}.")
-    speed, window = evaluation.pushes[push_preset]
-    env.push = PushConfig(interval_s=(3.0, 3.0), velocity=(speed, speed), window_s=window)
+    env.push = evaluation.pushes[push_preset].push_config()
     env.push.only_when_standing = evaluation.push_only_when_standing
     env.command_resample_s = None  # one command per episode: the figures are per command
     if hasattr(env, "curriculum"):

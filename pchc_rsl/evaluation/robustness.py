@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from pchc_rsl.evaluation.presets import FALL_RECOVERY_EVALUATION, WALK_EVALUATION
 from pchc_rsl.evaluation.report import _finite_or_null, format_metric
 from pchc_rsl.utils.files import recorded_path
 
@@ -39,6 +40,18 @@ STEERING = [("turn left 0.5 rad/s", 0.5, 0.0, 0.5), ("turn right 0.5 rad/s", 0.5
 and lateral-speed errors say whether the walker goes where it is told."""
 
 
+def _force_push(preset) -> list[str]:
+    """A PushPreset's force, in place of the evaluation preset's kicks (same interval and window)."""
+    low, high = preset.force
+    bodies = json.dumps({b: 1.0 for b in preset.bodies}).replace(" ", "")
+    return ["env.push.velocity_share=0", "env.push.force.share=1", f"env.push.force.magnitude={low},{high}",
+            f"env.push.force.duration_s={preset.duration_s},{preset.duration_s}", f"env.push.force.bodies={bodies}"]
+
+
+WALK_FORCE_PRESETS = ("force-mild", "force-strong", "force-legs")
+FALL_RECOVERY_FORCE_PRESETS = ("force-mild", "force-strong")
+"""The task's force presets each a condition of their own (pushes as a robot meets them)."""
+
 WALK_PUSH_SWEEP = (1.0, 1.5, 2.0)
 FALL_RECOVERY_PUSH_SWEEP = (1.6, 2.0, 2.4)
 """Push speeds (m/s) of the sweep, beyond the presets."""
@@ -47,8 +60,8 @@ FALL_RECOVERY_PUSH_SWEEP = (1.6, 2.0, 2.4)
 def default_conditions(task: str) -> list[Condition]:
     """The default set of deployment shifts: nominal, action latency 10 and 20 ms, the paper physics for a
     ``-fast`` policy, friction 0.4 and 1.2, pelvis mass -1 and +5 kg, actuator strength 0.8, observation noise,
-    commands 0 and 1.0 m/s and the steering commands (walking; 0.5 m/s straight is the nominal), and a push-speed
-    sweep."""
+    commands 0 and 1.0 m/s and the steering commands (walking; 0.5 m/s straight is the nominal), a push-speed
+    sweep, and the task's force presets."""
     walking = task.startswith("g1-walk")
     conditions = [
         Condition("nominal"),
@@ -70,6 +83,11 @@ def default_conditions(task: str) -> list[Condition]:
         conditions += [Condition(name, _command(*command)) for name, *command in STEERING]
     for speed in WALK_PUSH_SWEEP if walking else FALL_RECOVERY_PUSH_SWEEP:
         conditions.append(Condition(f"push {speed:g} m/s", [f"env.push.velocity={speed},{speed}"]))
+    evaluation = WALK_EVALUATION if walking else FALL_RECOVERY_EVALUATION
+    for name in WALK_FORCE_PRESETS if walking else FALL_RECOVERY_FORCE_PRESETS:
+        preset = evaluation.pushes[name]
+        where = "legs" if "legs" in name else "torso/pelvis"
+        conditions.append(Condition(f"force {preset.force[0]:g}-{preset.force[1]:g} N {where}", _force_push(preset)))
     return conditions
 
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import collections
 import math
+import random
 import socket
 import threading
 import time
@@ -106,7 +107,8 @@ class WebViewer:
 
     def __init__(self, env, policy, preference, host: str = DEFAULT_HOST, port: int = DEFAULT_PORT,
                  speed: float = 1.0, pushes: dict | None = None) -> None:
-        """``pushes``: the task's push presets, name -> (speed m/s, window s), offered as the push's strength."""
+        """``pushes``: the task's push presets by name (pchc_rsl.evaluation.presets.PushPreset), offered as the
+        push's strength: a velocity kick, or a force drawn from the preset's range on one of its bodies."""
         import torch
 
         viser, ViserMujocoScene = require_viser()
@@ -220,10 +222,15 @@ class WebViewer:
     def _push(self, strength: str, direction: str) -> None:
         from pchc_rsl.envs.g1.robot_state import yaw_of
 
-        speed = self.pushes[strength][0] if strength in self.pushes else None
+        preset = self.pushes.get(strength)
         offset = PUSH_DIRECTIONS[direction]
         angle = None if offset is None else float(yaw_of(self.env.robot.base_quat[:1])[0]) + offset
-        self.env.pushes.request(0, speed, angle)
+        if preset is not None and preset.force is not None:
+            body = self.env.model.body(random.choice(preset.bodies)).id
+            self.env.pushes.request(0, angle=angle, force=random.uniform(*preset.force), duration_s=preset.duration_s,
+                                    body_id=body)
+        else:
+            self.env.pushes.request(0, None if preset is None else preset.speed, angle)
         self.pushes_done += 1
 
     # ------------------------------------------------------------------ simulation
