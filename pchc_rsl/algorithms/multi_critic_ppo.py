@@ -204,6 +204,8 @@ class MultiCriticPPO(PPO):
     def update(self) -> dict[str, float]:
         loss_dict = super().update()
         loss_dict.update(self.return_stats)
+        if hasattr(self.actor, "advance_schedule"):  # e.g. the PCI actor's routing warm-up
+            self.actor.advance_schedule()
         if self.amp is not None:
             reduce = self._reduce_amp_gradients if self.is_multi_gpu else None
             loss_dict.update(self.amp.update(reduce))

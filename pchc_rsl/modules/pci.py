@@ -219,19 +219,78 @@ class HistoryExpertsHead(nn.Module):
 
 
 class PCIHead(HistoryExpertsHead):
-    """Experts routed by routing_weights(lambda): no learned gate, the preference alone decides the mixture."""
+    """Experts routed by routing_weights(lambda): no learned gate, the preference alone decides the mixture (the
+    paper). Options that keep the lambda-routed experts and change what they share (docs/results/mo_study.md,
+    "Why PCI's runs split"):
 
-    def __init__(self, positions: torch.Tensor, alpha0: float, beta0: float | None, scale: float, **kwargs) -> None:
+    - ``residual``: a shared network that every sample trains, the experts as lambda-routed corrections on it,
+      each zero at the start (mu = f(x) + sum_j w_j(lambda) r_j(x), a mixture of residual experts as in MoRE);
+    - ``floor``: every expert gets at least this weight, w'_j = floor + (1 - E floor) w_j;
+    - ``gate_hidden_dims``: a learned gate on top of the Beta density, w = softmax(log w(lambda) + g(x, lambda)),
+      g's last layer zero at the start, so training starts as exact PCI;
+    - ``warmup_updates``: the routing scale grows from 0 (every expert alike) to ``scale`` over this many PPO
+      updates (``advance_schedule``, called once per update by MultiCriticPPO).
+    """
+
+    def __init__(self, positions: torch.Tensor, alpha0: float, beta0: float | None, scale: float,
+                 residual: bool = False, floor: float = 0.0, gate_hidden_dims: list[int] | None = None,
+                 warmup_updates: int = 0, **kwargs) -> None:
         super().__init__(num_experts=len(positions), **kwargs)
+        num_experts = len(positions)
+        if not 0.0 <= floor < 1.0 / num_experts:
+            raise ValueError(f"routing_floor {floor} must be in [0, 1/{num_experts}) for {num_experts} experts.")
+        if warmup_updates < 0:
+            raise ValueError(f"routing_warmup_updates must be >= 0, got {warmup_updates}.")
         self.register_buffer("positions", positions)  # [E, m] points on the simplex
         self.alpha0, self.beta0, self.scale = alpha0, beta0, scale
+        self.floor, self.warmup_updates = floor, warmup_updates
+        if warmup_updates > 0:  # saved with the actor, so a resumed run's warm-up goes on where it was
+            self.register_buffer("updates", torch.zeros((), dtype=torch.long))
+        out = self.experts.weights[-1].shape[-1]
+        self.shared = None
+        if residual:
+            hidden = [w.shape[-1] for w in self.experts.weights[:-1]]
+            self.shared = BatchedExperts(1, self.features_dim, out, hidden, kwargs["activation"])
+            with torch.no_grad():
+                self.experts.weights[-1].zero_()
+                self.experts.biases[-1].zero_()
+        self.gate = None
+        if gate_hidden_dims is not None:
+            self.gate = MLP(self.features_dim, num_experts, list(gate_hidden_dims), kwargs["activation"])
+            with torch.no_grad():
+                self.gate[-1].weight.zero_()
+                self.gate[-1].bias.zero_()
+
+    def current_scale(self) -> float | torch.Tensor:
+        """s now: ``scale``, or during the warm-up its share of it (PPO updates so far / warmup_updates)."""
+        if self.warmup_updates == 0:
+            return self.scale
+        return self.scale * (self.updates.float() / self.warmup_updates).clamp(max=1.0)
+
+    def advance_schedule(self) -> None:
+        """One PPO update done (the warm-up's clock)."""
+        if self.warmup_updates > 0:
+            self.updates += 1
+
+    def preference_routing(self, preference: torch.Tensor) -> torch.Tensor:
+        """[N, E] the routing lambda alone decides (the Beta density, its warm-up and floor), without a gate."""
+        weights = routing_weights(preference, self.positions, self.alpha0, self.beta0, self.current_scale())
+        if self.floor > 0.0:
+            weights = self.floor + (1.0 - self.positions.shape[0] * self.floor) * weights
+        return weights
 
     def routing(self, x: torch.Tensor, features: torch.Tensor | None = None) -> torch.Tensor:
-        """[N, E] expert weights: the preference's density at the expert positions."""
-        return routing_weights(x[:, self.obs_dim :], self.positions, self.alpha0, self.beta0, self.scale)
+        """[N, E] expert weights: the preference's density at the expert positions (and the gate's correction)."""
+        weights = self.preference_routing(x[:, self.obs_dim :])
+        if self.gate is None:
+            return weights
+        features = self.features(x) if features is None else features
+        return torch.softmax(weights.clamp(min=1e-30).log() + self.gate(features), dim=-1)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        return self.mix(self.features(x), self.routing(x))
+        features = self.features(x)
+        mixed = self.mix(features, self.routing(x, features))
+        return mixed if self.shared is None else mixed + self.shared(features)[0]
 
 
 class GatedHead(HistoryExpertsHead):
@@ -365,7 +424,8 @@ class PCIActor(_MixtureActor):
     paper's design; ``experts_see_preference=False`` for preference-blind experts). ``num_experts`` experts sit on
     the simplex lattice of resolution num_experts - 1 for two objectives (0, .25, .5, .75, 1 by default); for m
     objectives the default lattice of resolution ``lattice_resolution`` is used, or pass ``expert_positions`` ([E]
-    for m = 2, else [E, m]).
+    for m = 2, else [E, m]). ``residual_experts``, ``routing_floor``, ``prior_gate_hidden_dims`` and
+    ``routing_warmup_updates`` are PCIHead's options (off by default: the paper's routing).
     """
 
     def __init__(
@@ -380,6 +440,10 @@ class PCIActor(_MixtureActor):
         alpha0: float = 1.0,
         beta0: float | None = None,
         routing_scale: float = DEFAULT_ROUTING_SCALE,
+        residual_experts: bool = False,
+        routing_floor: float = 0.0,
+        prior_gate_hidden_dims: list[int] | None = None,
+        routing_warmup_updates: int = 0,
         **kwargs,
     ) -> None:
         super().__init__(obs, obs_groups, obs_set, output_dim, **kwargs)
@@ -390,13 +454,20 @@ class PCIActor(_MixtureActor):
             positions = simplex_lattice(2, num_experts - 1)
         else:
             positions = simplex_lattice(m, lattice_resolution)
-        self.mlp = PCIHead(positions, alpha0, beta0, routing_scale, **self.head_kwargs)
+        self.mlp = PCIHead(positions, alpha0, beta0, routing_scale, residual=residual_experts, floor=routing_floor,
+                           gate_hidden_dims=prior_gate_hidden_dims, warmup_updates=routing_warmup_updates,
+                           **self.head_kwargs)
         self._freeze_all_but_trained_experts()
 
     def expert_weights(self, obs: TensorDict) -> torch.Tensor:
-        """[N, E]: PCI's weights depend on lambda alone, so the observation is not encoded."""
-        head = self.mlp
-        return routing_weights(obs[self.preference_group], head.positions, head.alpha0, head.beta0, head.scale)
+        """[N, E]: without a gate PCI's weights depend on lambda alone, so the observation is not encoded."""
+        if self.mlp.gate is not None:
+            return super().expert_weights(obs)
+        return self.mlp.preference_routing(obs[self.preference_group])
+
+    def advance_schedule(self) -> None:
+        """Called once per PPO update (MultiCriticPPO): the routing warm-up's clock."""
+        self.mlp.advance_schedule()
 
 
 class GatedMoEActor(_MixtureActor):
