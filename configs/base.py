@@ -47,6 +47,10 @@ class AMPConfig:
     learning_rate: float = 1e-4
     num_updates: int = 4
     batch_size: int = 512
+    replay_capacity: int = 100_000
+    """Policy windows the discriminator replays (the newest ones)."""
+    exclude_reference_beyond: dict[str, float] = field(default_factory=dict)
+    """Joint -> bound (rad): clip frames with that joint further from zero are left out of the reference."""
 
 
 @dataclass

@@ -405,3 +405,36 @@ def test_replay_buffer_state_round_trips_into_a_fresh_buffer():
     assert fresh.data[2].tolist() == [100.0, 101.0]  # the oldest row is overwritten, as in the original
     with pytest.raises(ValueError, match="does not fit"):
         ReplayBuffer(capacity=3, dim=2).load_state_dict(buffer.state_dict())
+
+
+def test_frames_beyond_a_bound_are_left_out_of_the_reference_windows():
+    """A 10-frame clip whose joint 'a' leaves +-1.2 rad at frames 4 and 5: of its 8 windows of 3 frames, those
+    starting at 0, 1, 6 and 7 hold neither."""
+    from pchc_rsl.amp.motion import MotionWindows, kept_frames
+
+    clip = torch.zeros(10, 2)
+    clip[4, 0], clip[5, 0] = 1.3, -1.5
+    clip[:, 1] = 3.0  # an unbounded joint far from zero changes nothing
+    keep = kept_frames(clip, ["a", "b"], {"a": 1.2})
+    assert keep.tolist() == [True] * 4 + [False, False] + [True] * 4
+    windows = MotionWindows([clip], window=3, keep=[keep])
+    assert windows.starts.tolist() == [0, 1, 6, 7]
+    assert (windows.sample(200)[:, 0::2].abs() <= 1.2).all()
+    with pytest.raises(ValueError, match="not AMP joints"):
+        kept_frames(clip, ["a", "b"], {"c": 1.0})
+    with pytest.raises(ValueError, match="No reference window"):
+        MotionWindows([clip], window=3, keep=[torch.zeros(10, dtype=torch.bool)])
+
+
+def test_a_clip_outside_the_robots_joint_range_is_refused_naming_file_and_column(tmp_path):
+    from pchc_rsl.amp.motion import load_motion
+
+    path = tmp_path / "clip.npz"
+    positions = np.zeros((20, 2))
+    positions[7, 1] = 2.0
+    np.savez(path, fps=30.0, dof_names=np.array(["a", "b"]), dof_positions=positions)
+    with pytest.raises(ValueError, match=r"clip\.npz: column 'b' leaves the robot's range \[-1\.000, 1\.000\]") as e:
+        load_motion(path, ["a", "b"], 50.0, joint_ranges=[(-1.0, 1.0), (-1.0, 1.0)])
+    assert "frame 7" in str(e.value) and "\n" not in str(e.value)
+    loaded = load_motion(path, ["a", "b"], 50.0, joint_ranges=[(-1.0, 1.0), (-1.0, 2.01)])
+    assert loaded.shape[1] == 2

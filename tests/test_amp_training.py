@@ -1,3 +1,4 @@
+import copy
 import os
 
 import numpy as np
@@ -11,8 +12,11 @@ from pchc_rsl.robots.g1.constants import WALK_JOINTS
 
 
 def write_clip(path, joints, frames=120, fps=30):
+    """A 1 Hz sine on every joint, inside the G1's ranges (knees bent 0.2-0.8 rad, ankle rolls within +-0.2)."""
     t = np.arange(frames) / fps
     positions = 0.3 * np.sin(2 * np.pi * 1.0 * t[:, None] + np.arange(len(joints))[None, :])
+    positions += np.array([0.5 if "knee" in j else 0.0 for j in joints])
+    positions *= np.array([0.6 if "ankle_roll" in j else 1.0 for j in joints])
     np.savez(path, fps=fps, dof_names=np.array(joints), dof_positions=positions)
 
 
@@ -94,3 +98,37 @@ def test_real_clips_drive_the_walking_discriminator(tmp_path):
     cfg.runner.algorithm.amp_cfg.motion_files = [os.path.join(motion_dir, "lafan1_walk1_subject1.csv")]
     runner = make_runner(cfg)
     assert runner.alg.amp.reference.sample(3).shape == (3, 5 * 20)
+
+
+def test_init_from_with_a_fresh_discriminator_keeps_the_policy_and_not_the_discriminator(tmp_path):
+    """--init-from copies the actor and the discriminator; with --fresh-discriminator the actor only (the
+    discriminator as the run starts, before it learns, is not the checkpoint's)."""
+    from pchc_rsl.cli import train
+    from pchc_rsl.runners import PCHCRunner, load_checkpoint
+
+    write_clip(tmp_path / "clip.npz", WALK_JOINTS)
+    common = ["--task", "g1-walk-fast", "--num-envs", "2", "--max-iterations", "1",
+              "--motion-files", str(tmp_path / "clip.npz"), "runner.num_steps_per_env=4"]
+    train.main([*common, "--log-dir", str(tmp_path / "a")])
+    source = str(tmp_path / "a" / "model_0.pt")
+    saved = load_checkpoint(source)
+    at_start = {}
+    learn = PCHCRunner.learn
+
+    def look_then_learn(runner, *args, **kwargs):
+        at_start["discriminator"] = copy.deepcopy(runner.alg.amp.discriminator.state_dict())
+        at_start["actor"] = copy.deepcopy(runner.alg.actor.state_dict())
+        return learn(runner, *args, **kwargs)
+
+    def same(a, b):
+        return a.keys() == b.keys() and all(torch.equal(a[k], b[k]) for k in a)
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(PCHCRunner, "learn", look_then_learn)
+        train.main([*common, "--log-dir", str(tmp_path / "b"), "--init-from", source])
+        assert same(at_start["discriminator"], saved["amp_state_dict"]["discriminator"])
+        train.main([*common, "--log-dir", str(tmp_path / "c"), "--init-from", source, "--fresh-discriminator"])
+        assert not same(at_start["discriminator"], saved["amp_state_dict"]["discriminator"])
+        assert same(at_start["actor"], saved["actor_state_dict"])
+    with pytest.raises(SystemExit, match="--fresh-discriminator applies to --init-from"):
+        train.main([*common, "--log-dir", str(tmp_path / "d"), "--fresh-discriminator"])

@@ -273,6 +273,10 @@ class G1Env(VecEnv):
         report = getattr(self.physics, "overflow_report", None)
         return report() if report is not None else {}
 
+    def joint_ranges(self, names: list[str]) -> list[tuple[float, float]]:
+        """The model's range (rad) of each named joint: what a motion clip for this robot must stay within."""
+        return [tuple(float(x) for x in self.model.jnt_range[self.model.joint(name).id]) for name in names]
+
     # ---------------------------------------------------------------- metrics and deployment
     def episode_metrics(self, env_ids: torch.Tensor) -> dict[str, torch.Tensor]:
         """Metrics of these envs' episodes so far, each [len(env_ids)] (NaN where undefined, e.g. no push)."""

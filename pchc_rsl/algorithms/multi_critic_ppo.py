@@ -246,8 +246,9 @@ class MultiCriticPPO(PPO):
 
     @staticmethod
     def resolve_amp_config(amp_cfg: dict | None, obs: TensorDict, env: VecEnv) -> dict | None:
-        """Fill the AMP input width and the motion frame rate (the policy rate); None (with a note) without motions.
-        Public so that tools rebuild the style reward exactly as training does (tools/style_score.py)."""
+        """Fill the AMP input width, the motion frame rate (the policy rate) and, from an env that tells them
+        (``joint_ranges(names)``), the robot's joint ranges the clips must respect; None (with a note) without
+        motions. Public so that tools rebuild the style reward exactly as training does."""
         if not amp_cfg:
             return None
         amp_cfg = dict(amp_cfg)
@@ -262,6 +263,8 @@ class MultiCriticPPO(PPO):
             if not hasattr(env, "dt"):
                 raise ValueError("AMP needs amp_cfg['fps'] (the policy rate) or an env with a 'dt' attribute.")
             amp_cfg["fps"] = 1.0 / env.dt
+        if "joint_ranges" not in amp_cfg and hasattr(env, "joint_ranges"):
+            amp_cfg["joint_ranges"] = env.joint_ranges(amp_cfg["joint_names"])
         return amp_cfg
 
     @staticmethod

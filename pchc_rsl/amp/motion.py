@@ -124,11 +124,15 @@ def resample(positions: np.ndarray, fps_in: float, fps_out: float) -> np.ndarray
 
 
 def load_motion(
-    path: str | os.PathLike, joint_names: Sequence[str], fps_out: float, min_frames: int = 5
+    path: str | os.PathLike, joint_names: Sequence[str], fps_out: float, min_frames: int = 5,
+    joint_ranges: Sequence[tuple[float, float]] | None = None, range_tolerance: float = 0.05,
 ) -> torch.Tensor:
     """Joint positions of ``joint_names`` (in that order) resampled to ``fps_out``. Returns float32 [T, J].
 
     ``min_frames`` is the shortest clip accepted after resampling (at least one discriminator window).
+    ``joint_ranges`` ([J] (low, high), rad, the robot's): a frame more than ``range_tolerance`` outside its joint's
+    range is refused, naming the file and the joint: the robot cannot take that pose, so the discriminator would
+    learn a style no policy can reach.
     """
     path = Path(path)
     if not math.isfinite(fps_out) or fps_out <= 0:
@@ -162,6 +166,18 @@ def load_motion(
             f"{path}: {int(bad.sum())} non-finite value(s) (NaN or inf), first at frame {int(frames[0])} of joint "
             f"'{joint_names[int(joints[0])]}'; motion clips must be finite."
         )
+
+    if joint_ranges is not None:
+        low, high = (np.asarray([r[k] for r in joint_ranges], dtype=np.float64) for k in (0, 1))
+        outside = (selected < low - range_tolerance) | (selected > high + range_tolerance)
+        if outside.any():
+            frames, joints = np.nonzero(outside)
+            j = int(joints[0])
+            raise ValueError(
+                f"{path}: column '{joint_names[j]}' leaves the robot's range [{low[j]:.3f}, {high[j]:.3f}] rad "
+                f"(by more than {range_tolerance:g}) in {int(outside[:, j].sum())} frame(s), first frame "
+                f"{int(frames[0])} at {selected[frames[0], j]:.3f} rad; retarget the clip to this robot."
+            )
 
     resampled = resample(selected, fps_in, fps_out)
     if resampled.shape[0] < min_frames:
@@ -197,9 +213,24 @@ def load_motions(
     joint_names: Sequence[str],
     fps_out: float,
     min_frames: int = 5,
+    joint_ranges: Sequence[tuple[float, float]] | None = None,
 ) -> list[torch.Tensor]:
     """Load every clip named by ``paths`` (files and/or folders) with load_motion. Returns a list of [T_i, J]."""
-    return [load_motion(f, joint_names, fps_out, min_frames) for f in find_motion_files(paths)]
+    return [load_motion(f, joint_names, fps_out, min_frames, joint_ranges) for f in find_motion_files(paths)]
+
+
+def kept_frames(clip: torch.Tensor, joint_names: Sequence[str], exclude_beyond: dict[str, float]) -> torch.Tensor:
+    """[T] bool: the frames of a clip [T, J] in which no joint named in ``exclude_beyond`` is further from zero than
+    its bound (rad), e.g. {"left_shoulder_roll_joint": 1.2}: poses the clip holds that a task's gait should not
+    learn (the arms raised into a T-pose)."""
+    unknown = [name for name in exclude_beyond if name not in joint_names]
+    if unknown:
+        raise ValueError(f"exclude_reference_beyond names {unknown}, which are not AMP joints; they are "
+                         f"{list(joint_names)}.")
+    keep = torch.ones(clip.shape[0], dtype=torch.bool)
+    for name, bound in exclude_beyond.items():
+        keep &= clip[:, list(joint_names).index(name)].abs() <= bound
+    return keep
 
 
 class MotionWindows:
@@ -209,7 +240,10 @@ class MotionWindows:
     are concatenated once; ``starts`` holds each valid start row of that concatenation.
     """
 
-    def __init__(self, clips: Sequence[torch.Tensor], window: int = 5, device: str | torch.device = "cpu") -> None:
+    def __init__(self, clips: Sequence[torch.Tensor], window: int = 5, device: str | torch.device = "cpu",
+                 keep: Sequence[torch.Tensor] | None = None) -> None:
+        """``keep``: per clip, [T_i] bool of the frames a window may hold (None: all); windows over a left-out frame
+        are not sampled."""
         if window < 1:
             raise ValueError(f"window must be >= 1 frame, got {window}.")
         if len(clips) == 0:
@@ -228,10 +262,16 @@ class MotionWindows:
         self.device = torch.device(device)
         self.frames = torch.cat([c.to(self.device, torch.float32) for c in clips])  # [sum T_i, J]
         starts, offset = [], 0
-        for length, _ in shapes:
-            starts.append(torch.arange(offset, offset + length - window + 1))
+        for i, (length, _) in enumerate(shapes):
+            first = torch.arange(length - window + 1)
+            if keep is not None:  # a start is valid when its whole window is kept
+                clear = keep[i].to(torch.int64).unfold(0, window, 1).sum(-1) == window
+                first = first[clear]
+            starts.append(offset + first)
             offset += length
         self.starts = torch.cat(starts).to(self.device)  # [num_windows]
+        if self.starts.numel() == 0:
+            raise ValueError("No reference window is left: every window of the clips holds a left-out frame.")
         self.offsets = torch.arange(window, device=self.device)
 
     @property

@@ -10,7 +10,7 @@ from __future__ import annotations
 import torch
 
 from pchc_rsl.amp.discriminator import AMPDiscriminator, ReplayBuffer
-from pchc_rsl.amp.motion import MotionWindows, load_motions
+from pchc_rsl.amp.motion import MotionWindows, kept_frames, load_motions
 
 
 class AMPStyle:
@@ -29,15 +29,22 @@ class AMPStyle:
         num_updates: int = 4,
         batch_size: int = 512,
         obs_group: str = "amp",
+        exclude_reference_beyond: dict[str, float] | None = None,
+        joint_ranges: list[tuple[float, float]] | None = None,
         device: str = "cpu",
     ) -> None:
+        """``exclude_reference_beyond``: joint -> bound (rad) past which a clip's frame is left out of the reference
+        (motion.kept_frames); ``joint_ranges``: the robot's range of each AMP joint, which every clip frame must
+        respect (motion.load_motion)."""
         if input_dim != window * len(joint_names):
             raise ValueError(
                 f"The '{obs_group}' observation has {input_dim} columns; AMP expects window {window} x "
                 f"{len(joint_names)} joints = {window * len(joint_names)}."
             )
-        clips = load_motions(motion_files, joint_names, fps, min_frames=window)
-        self.reference = MotionWindows(clips, window, device)
+        clips = load_motions(motion_files, joint_names, fps, min_frames=window, joint_ranges=joint_ranges)
+        keep = [kept_frames(c, joint_names, exclude_reference_beyond) for c in clips] if exclude_reference_beyond \
+            else None
+        self.reference = MotionWindows(clips, window, device, keep)
         self.discriminator = AMPDiscriminator(input_dim, hidden_dims, input_normalization=True).to(device)
         self.optimizer = torch.optim.Adam(self.discriminator.parameters(), lr=learning_rate)
         self.replay = ReplayBuffer(replay_capacity, input_dim, device)
@@ -45,8 +52,10 @@ class AMPStyle:
         self.num_updates, self.batch_size = num_updates, batch_size
         self.obs_group = obs_group
         frames = sum(len(clip) for clip in clips)
-        self.summary = (f"AMP: {len(clips)} clip(s), {frames} frames at {fps:g} fps, {self.reference.num_windows} "
-                        f"reference windows of {window}, style reward scale {style_reward_scale:g}")
+        left_out = f" ({sum(int((~k).sum()) for k in keep)} frames left out)" if keep is not None else ""
+        self.summary = (f"AMP: {len(clips)} clip(s), {frames} frames at {fps:g} fps{left_out}, "
+                        f"{self.reference.num_windows} reference windows of {window}, style reward scale "
+                        f"{style_reward_scale:g}")
         """One line for the user: what the style reward was given."""
 
     def reward(self, windows: torch.Tensor) -> torch.Tensor:

@@ -61,6 +61,9 @@ def build_parser(task_help: str = "") -> argparse.ArgumentParser:
                         help="a new run of --task's config (with flags and KEY=VALUE) whose networks start from "
                         "this checkpoint's weights (actor, critics, AMP discriminator): fine-tuning after a reward "
                         "or environment change; fresh optimizer, iterations from 0")
+    parser.add_argument("--fresh-discriminator", action="store_true",
+                        help="with --init-from: start the AMP discriminator afresh instead of from the checkpoint's "
+                        "(one trained on a gait far from the clips tells every new window apart and pays no style)")
     parser.add_argument("--show-config", action="store_true", help="print the resolved config and exit")
     parser.add_argument("-v", "--verbose", action="store_true",
                         help="also print the models, rsl-rl's full per-iteration block and error tracebacks")
@@ -110,6 +113,9 @@ def resolve(args) -> tuple:
     if args.resume and args.init_from:
         raise ValueError("give --resume (continue a run with its config) or --init-from (a new run starting from its "
                          "weights), not both.")
+    if args.fresh_discriminator and not args.init_from:
+        raise ValueError("--fresh-discriminator applies to --init-from (a run continued with --resume keeps its "
+                         "discriminator).")
     if args.resume and os.path.isdir(args.resume):  # a run folder: its latest checkpoint, as legged_gym does
         from pchc_rsl.training.run_folder import checkpoints_in
 
@@ -189,7 +195,8 @@ def resolve(args) -> tuple:
     if args.init_from:
         load_checkpoint(args.init_from)  # unreadable: refused here, before a run folder exists
         config["initialised_from"] = os.path.abspath(args.init_from)
-        notes.append(f"networks start from {args.init_from}'s weights; fresh optimizer, iterations from 0")
+        notes.append(f"networks start from {args.init_from}'s weights; fresh optimizer, iterations from 0"
+                     + ("; fresh discriminator" if args.fresh_discriminator else ""))
     return cfg, config, notes
 
 
@@ -238,7 +245,8 @@ def train(cfg, config: dict, log_dir: str, args) -> None:
                                  "a resumed run keeps the checkpoint's networks: drop the override, or start a new "
                                  "run with --task.") from None
         elif args.init_from:
-            runner.load(args.init_from, load_cfg=INIT_FROM_PARTS, widen_critic=True)
+            parts = {**INIT_FROM_PARTS, "amp": not args.fresh_discriminator}
+            runner.load(args.init_from, load_cfg=parts, widen_critic=True)
             _continue_env_progress(runner, args.init_from)
         first = runner.current_learning_iteration
         last = first + cfg.runner.max_iterations - 1
