@@ -44,6 +44,9 @@ class AMPConfig:
     """c, per policy step (0.02 = 1.0 per second at 50 Hz, on the scale of the env's dt-weighted terms)."""
     grad_penalty_coef: float = 5.0
     """alpha^d."""
+    penalty_on: str = "reference"
+    """Where the gradient penalty is taken: "reference" (the AMP paper) or "interpolates" (between reference and
+    policy windows: a discriminator that keeps its slope; pchc_rsl.amp.discriminator)."""
     learning_rate: float = 1e-4
     num_updates: int = 4
     batch_size: int = 512

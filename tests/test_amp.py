@@ -438,3 +438,22 @@ def test_a_clip_outside_the_robots_joint_range_is_refused_naming_file_and_column
     assert "frame 7" in str(e.value) and "\n" not in str(e.value)
     loaded = load_motion(path, ["a", "b"], 50.0, joint_ranges=[(-1.0, 1.0), (-1.0, 2.01)])
     assert loaded.shape[1] == 2
+
+
+def test_grad_penalty_on_interpolates_is_taken_between_reference_and_policy_windows():
+    """With penalty_on="interpolates" the penalty is the mean squared input gradient at share * ref + (1 - share) *
+    policy, share ~ U(0, 1) per pair (drawn from torch's global stream, here reseeded): computed by hand."""
+    torch.manual_seed(0)
+    disc = AMPDiscriminator(6, hidden_dims=[16, 16], input_normalization=True)
+    disc.update_normalization(torch.randn(256, 6) * 2 + 1)
+    reference, policy = torch.randn(32, 6), 3 * torch.randn(20, 6) + 1
+    torch.manual_seed(5)
+    _, info = disc.loss(reference, policy, grad_penalty_coef=5.0, penalty_on="interpolates")
+    torch.manual_seed(5)
+    share = torch.rand(20, 1)
+    at = (share * disc.normalizer(reference[:20]) + (1 - share) * disc.normalizer(policy)).detach().requires_grad_()
+    (grad,) = torch.autograd.grad(disc.mlp(at).sum(), at)
+    assert info["amp/grad_penalty"] == pytest.approx(grad.square().sum(-1).mean().item(), rel=1e-5)
+    assert info["amp/grad_penalty"] != pytest.approx(reference_grad_penalty(disc, reference), rel=1e-2)
+    with pytest.raises(ValueError, match="penalty_on 'everywhere'"):
+        disc.loss(reference, policy, grad_penalty_coef=5.0, penalty_on="everywhere")

@@ -13,6 +13,10 @@ import torch.nn as nn
 from rsl_rl.modules import MLP, EmpiricalNormalization
 
 
+PENALTY_PLACES = ("reference", "interpolates")
+"""Where the gradient penalty is taken (AMPDiscriminator.loss)."""
+
+
 class AMPDiscriminator(nn.Module):
     """MLP on a window of AMP states: [B, input_dim] -> [B] scalar D, optionally on empirically normalised input."""
 
@@ -44,15 +48,18 @@ class AMPDiscriminator(nn.Module):
             self.normalizer.update(x)
 
     def loss(
-        self, reference: torch.Tensor, policy: torch.Tensor, grad_penalty_coef: float
+        self, reference: torch.Tensor, policy: torch.Tensor, grad_penalty_coef: float, penalty_on: str = "reference"
     ) -> tuple[torch.Tensor, dict[str, float]]:
-        """Least-squares GAN loss with the gradient penalty on the reference samples (the AMP paper).
+        """Least-squares GAN loss with a zero-centred gradient penalty (the AMP paper's, on the reference samples).
 
-            L = mean (D(ref) - 1)^2 + mean (D(policy) + 1)^2 + (alpha_d / 2) mean ||grad_x D(x)|_{x = ref}||^2
+            L = mean (D(ref) - 1)^2 + mean (D(policy) + 1)^2 + (alpha_d / 2) mean ||grad_x D(x)||^2
 
         The PCHC paper prints the penalty as ||grad_phi D||_2 (unsquared, w.r.t. phi); we follow the AMP paper it
-        builds on: the squared norm of the gradient w.r.t. the input, the zero-centred R1 penalty that keeps the
-        discriminator smooth around the reference data.
+        builds on: the squared norm of the gradient w.r.t. the input. ``penalty_on`` says where x is taken:
+        "reference" (the AMP paper: D is smooth around the clips, free elsewhere) or "interpolates" (points drawn
+        uniformly on the segments between reference and policy samples: D has to climb from -1 to +1 along the
+        whole way between them, so it keeps a slope where the policy is instead of a step next to the clips, and the
+        style reward pulls a policy that starts far from them; docs/design.md, "A style reward that pulls").
         x is the normalised input (the raw input without input_normalization). reference [B_r, input_dim],
         policy [B_p, input_dim]. Returns (L, logging dict of floats).
         """
@@ -60,16 +67,24 @@ class AMPDiscriminator(nn.Module):
         self._check(policy, "policy")
         if grad_penalty_coef < 0:
             raise ValueError(f"grad_penalty_coef (alpha_d) must be >= 0, got {grad_penalty_coef}.")
+        if penalty_on not in PENALTY_PLACES:
+            raise ValueError(f"penalty_on '{penalty_on}' is not one of {', '.join(PENALTY_PLACES)}.")
         ref_input = self.normalizer(reference).detach().requires_grad_(True)
         d_ref = self.mlp(ref_input).squeeze(-1)
         d_policy = self(policy)
         loss_ref = (d_ref - 1.0).square().mean()
         loss_policy = (d_policy + 1.0).square().mean()
+        if penalty_on == "reference":
+            at, d_at = ref_input, d_ref
+        else:
+            policy_input = self.normalizer(policy).detach()
+            n = min(len(ref_input), len(policy_input))
+            share = torch.rand(n, 1, device=policy_input.device)
+            at = (share * ref_input[:n].detach() + (1 - share) * policy_input[:n]).requires_grad_(True)
+            d_at = self.mlp(at).squeeze(-1)
         # create_graph so the penalty itself is differentiated w.r.t. the parameters; retain_graph so that without a
         # penalty (create_graph=False) the loss can still be backpropagated through d_ref
-        (grad,) = torch.autograd.grad(
-            d_ref.sum(), ref_input, create_graph=grad_penalty_coef > 0, retain_graph=True
-        )
+        (grad,) = torch.autograd.grad(d_at.sum(), at, create_graph=grad_penalty_coef > 0, retain_graph=True)
         grad_penalty = grad.square().sum(dim=-1).mean()
         total = loss_ref + loss_policy + 0.5 * grad_penalty_coef * grad_penalty
         info = {

@@ -31,6 +31,7 @@ class AMPStyle:
         obs_group: str = "amp",
         exclude_reference_beyond: dict[str, float] | None = None,
         joint_ranges: list[tuple[float, float]] | None = None,
+        penalty_on: str = "reference",
         device: str = "cpu",
     ) -> None:
         """``exclude_reference_beyond``: joint -> bound (rad) past which a clip's frame is left out of the reference
@@ -49,7 +50,7 @@ class AMPStyle:
         self.optimizer = torch.optim.Adam(self.discriminator.parameters(), lr=learning_rate)
         self.replay = ReplayBuffer(replay_capacity, input_dim, device)
         self.scale, self.grad_penalty_coef = style_reward_scale, grad_penalty_coef
-        self.num_updates, self.batch_size = num_updates, batch_size
+        self.num_updates, self.batch_size, self.penalty_on = num_updates, batch_size, penalty_on
         self.obs_group = obs_group
         frames = sum(len(clip) for clip in clips)
         left_out = f" ({sum(int((~k).sum()) for k in keep)} frames left out)" if keep is not None else ""
@@ -69,7 +70,7 @@ class AMPStyle:
         for _ in range(self.num_updates):
             reference = self.reference.sample(self.batch_size)
             policy = self.replay.sample(self.batch_size)
-            loss, info = self.discriminator.loss(reference, policy, self.grad_penalty_coef)
+            loss, info = self.discriminator.loss(reference, policy, self.grad_penalty_coef, self.penalty_on)
             self.optimizer.zero_grad()
             loss.backward()
             if reduce_gradients is not None:
