@@ -19,6 +19,8 @@ import os
 import torch
 
 DIGEST_FILE = os.path.join(os.path.dirname(__file__), "data", "g1_rollout_digests.json")
+RECORDED_KICKS = {"g1-walk": (0.3, 2.0), "g1-fall-recovery": (0.5, 2.75)}
+"""The velocity-kick ranges (m/s) of the recorded rollouts."""
 TASKS = ("g1-walk", "g1-fall-recovery")
 NUM_ENVS, STEPS, SEED = 4, 120, 3
 
@@ -39,10 +41,14 @@ def step_records(task: str, num_envs: int = NUM_ENVS, steps: int = STEPS, seed: 
     """Per step, {name: digest} of everything the env returns, on the task's config with frequent pushes and
     command changes and short episodes."""
     from pchc_rsl.configs import task_config
+    from pchc_rsl.envs.g1.config import ForcePushConfig
     from pchc_rsl.training.build import make_env
 
     cfg = task_config(task)
     cfg.num_envs, cfg.seed = num_envs, seed
+    # the kicks the digests were recorded with, whatever push mix the task trains with now
+    cfg.env.push.velocity_share, cfg.env.push.force = 1.0, ForcePushConfig()
+    cfg.env.push.velocity = RECORDED_KICKS[task]
     cfg.env.push.interval_s = (0.5, 1.0)
     cfg.env.push.only_when_standing = False
     cfg.env.episode_length_s = 1.5
