@@ -29,9 +29,10 @@ import shutil
 import sys
 from dataclasses import dataclass
 
-from pchc_rsl.evaluation import FALL_RECOVERY_EVALUATION, WALK_EVALUATION, TaskEvaluation, format_metric, front_points
+import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from pchc_rsl.evaluation import FALL_RECOVERY_EVALUATION, WALK_EVALUATION, TaskEvaluation, format_metric, front_points
+from pchc_rsl.evaluation.training_plots import plot_training, run_curves, summary_table
 
 PAPER_TABLE_II = {  # preference (disturbance, stride) -> (avg. stride m, trajectory deviation m)
     (0.0, 1.0): (0.79, 0.85),
@@ -424,12 +425,8 @@ def targets_table(targets: list[tuple[str, bool, str]]) -> list[str]:
 def training_summary(spec: str, tags: list[str], out: str, checkpoint: str | None = None) -> list[str]:
     """Plot the run's curves into ``out`` and return a line with its env steps and wall-clock hours, and where on
     them the evaluated ``checkpoint`` was taken (the runs may have gone on past it)."""
-    import numpy as np
-    import plot_training
-
-    plot_training.main([spec, "--tags", *tags, "--labels", os.path.basename(out).removesuffix(".png"),
-                        "--out", out])
-    steps, hours, _ = plot_training.run_curves(spec, "Train/mean_reward")
+    print(summary_table(plot_training([spec], tags, [os.path.basename(out).removesuffix(".png")], out)))
+    steps, hours, _ = run_curves(spec, "Train/mean_reward")
     if len(steps) == 0:
         return [f"No training events under {spec}."]
     line = (f"Trained for {int(steps[-1]):,} env steps in {hours[-1]:.1f} wall-clock hours "

@@ -5,8 +5,8 @@ import pytest
 import torch
 
 from pchc_rsl.cli import eval as eval_cli
+from pchc_rsl.cli import runs as runs_cli
 from pchc_rsl.cli import train as train_cli
-from tool_loader import load_tool
 
 
 @pytest.fixture(scope="module")
@@ -19,7 +19,8 @@ def two_checkpoints(tmp_path_factory):
 
 def test_parameters_are_the_mean_and_the_rest_is_the_newest(two_checkpoints):
     root, old, new = two_checkpoints
-    out = load_tool("average_checkpoints").main([new, old, "--out", str(root / "avg.pt")])  # order does not matter
+    out = str(root / "avg.pt")
+    runs_cli.main(["average", new, old, "--out", out])  # order does not matter
     averaged = torch.load(out, weights_only=True)
     a, b = torch.load(old, weights_only=True), torch.load(new, weights_only=True)
     for key in ("actor_state_dict", "critic_state_dict", "value_normalizer_state_dict"):
@@ -48,10 +49,11 @@ def test_checkpoints_of_different_networks_are_refused(two_checkpoints):
     name = next(n for n, t in other["actor_state_dict"].items() if t.is_floating_point() and t.dim() == 2)
     other["actor_state_dict"][name] = torch.zeros(3, 3)
     torch.save(other, root / "other.pt")
-    with pytest.raises(ValueError, match="not the same network"):
-        load_tool("average_checkpoints").main([str(root / "other.pt"), new, "--out", str(root / "x.pt")])
-    with pytest.raises(ValueError, match="at least two"):
-        load_tool("average_checkpoints").main([new, "--out", str(root / "x.pt")])
+    with pytest.raises(SystemExit, match="^pchc-runs average: .*not the same network"):
+        runs_cli.main(["average", str(root / "other.pt"), new, "--out", str(root / "x.pt")])
+    with pytest.raises(SystemExit, match="^pchc-runs average: give at least two checkpoints"):
+        runs_cli.main(["average", new, "--out", str(root / "x.pt")])
+    assert not (root / "x.pt").exists()
 
 
 def test_weights_interpolate_and_actor_only_keeps_the_newest_critics(two_checkpoints):
@@ -61,11 +63,11 @@ def test_weights_interpolate_and_actor_only_keeps_the_newest_critics(two_checkpo
     name = next(n for n, t in widened["critic_state_dict"].items() if t.is_floating_point() and t.dim() == 2)
     widened["critic_state_dict"][name] = torch.zeros(3, 3)
     torch.save(widened, root / "widened.pt")
-    tool = load_tool("average_checkpoints")
-    with pytest.raises(ValueError, match="not the same network"):
-        tool.main([str(root / "widened.pt"), new, "--weights", "1", "3", "--out", str(root / "x.pt")])
-    out = tool.main([new, str(root / "widened.pt"), "--weights", "3", "1", "--actor-only", "--out", str(root / "w.pt")])
-    mixed = torch.load(out, weights_only=True)
+    with pytest.raises(SystemExit, match="not the same network"):
+        runs_cli.main(["average", str(root / "widened.pt"), new, "--weights", "1", "3", "--out", str(root / "x.pt")])
+    runs_cli.main(["average", new, str(root / "widened.pt"), "--weights", "3", "1", "--actor-only", "--out",
+                   str(root / "w.pt")])
+    mixed = torch.load(root / "w.pt", weights_only=True)
     for name, tensor in a["actor_state_dict"].items():
         if tensor.is_floating_point() and not name.endswith("_std"):
             assert torch.allclose(mixed["actor_state_dict"][name], 0.25 * tensor + 0.75 * b["actor_state_dict"][name])
@@ -74,8 +76,8 @@ def test_weights_interpolate_and_actor_only_keeps_the_newest_critics(two_checkpo
             assert torch.equal(mixed[key][name], tensor), name
     assert mixed["averaged_weights"] == [0.25, 0.75]
     for bad, message in ((["1"], "one weight per checkpoint"), (["1", "-1"], ">= 0"), (["0", "0"], ">= 0")):
-        with pytest.raises(ValueError, match=message):
-            tool.main([new, old, "--weights", *bad, "--out", str(root / "x.pt")])
+        with pytest.raises(SystemExit, match=f"^pchc-runs average: --weights.*{message}"):
+            runs_cli.main(["average", new, old, "--weights", *bad, "--out", str(root / "x.pt")])
 
 
 def test_expert_weights_move_each_expert_by_its_own_share(two_checkpoints):
@@ -85,10 +87,9 @@ def test_expert_weights_move_each_expert_by_its_own_share(two_checkpoints):
     a, b = torch.load(new, weights_only=True), torch.load(old, weights_only=True)
     experts = a["actor_state_dict"]["mlp.experts.weights.0"].shape[0]
     shares = [i / (experts - 1) for i in range(experts)]
-    tool = load_tool("average_checkpoints")
-    out = tool.main([new, old, "--weights", "1", "0", "--expert-weights", *map(str, shares), "--out",
-                     str(root / "e.pt")])
-    mixed = torch.load(out, weights_only=True)
+    runs_cli.main(["average", new, old, "--weights", "1", "0", "--expert-weights", *map(str, shares), "--out",
+                   str(root / "e.pt")])
+    mixed = torch.load(root / "e.pt", weights_only=True)
     moved = 0
     for name, tensor in a["actor_state_dict"].items():
         if name.startswith("mlp.experts."):
@@ -102,7 +103,7 @@ def test_expert_weights_move_each_expert_by_its_own_share(two_checkpoints):
     for name, tensor in a["critic_state_dict"].items():
         assert torch.equal(mixed["critic_state_dict"][name], tensor), name
     for bad, message in ((shares[:-1], "one share in"), ([2.0] * experts, "one share in")):
-        with pytest.raises(ValueError, match=message):
-            tool.main([new, old, "--expert-weights", *map(str, bad), "--out", str(root / "x.pt")])
-    with pytest.raises(ValueError, match="two checkpoints"):
-        tool.main([new, old, old, "--expert-weights", *map(str, shares), "--out", str(root / "x.pt")])
+        with pytest.raises(SystemExit, match=f"^pchc-runs average: --expert-weights.*{message}"):
+            runs_cli.main(["average", new, old, "--expert-weights", *map(str, bad), "--out", str(root / "x.pt")])
+    with pytest.raises(SystemExit, match="--expert-weights mixes two checkpoints"):
+        runs_cli.main(["average", new, old, old, "--expert-weights", *map(str, shares), "--out", str(root / "x.pt")])

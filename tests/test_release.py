@@ -6,9 +6,9 @@ import pytest
 import torch
 
 from pchc_rsl.cli import eval as eval_cli
+from pchc_rsl.cli import runs as runs_cli
 from pchc_rsl.cli import train as train_cli
 from pchc_rsl.runners.checkpoint import release_checkpoint
-from tool_loader import load_tool
 
 
 def test_release_keeps_the_networks_and_drops_the_training_state():
@@ -42,10 +42,11 @@ def test_a_release_trains_its_whole_actor_when_resumed():
     assert kwargs["trained_experts"] == [1, 2, 3]  # the run's own checkpoint is untouched
 
 
-def test_shipped_toy_policy_evaluates_and_resumes(tmp_path):
+def test_a_released_toy_policy_evaluates_and_resumes(tmp_path):
     train_cli.main(["--task", "toy", "--max-iterations", "2", "--log-dir", str(tmp_path / "run")])
     original = tmp_path / "run" / "model_1.pt"
-    pt, onnx = load_tool("ship_policy").main([str(original), "--name", "toy", "--out", str(tmp_path / "policies")])
+    runs_cli.main(["release", str(original), "--name", "toy", "--out", str(tmp_path / "policies")])
+    pt, onnx = str(tmp_path / "policies" / "toy.pt"), str(tmp_path / "policies" / "toy.onnx")
     assert os.path.getsize(pt) < os.path.getsize(original) and os.path.isfile(onnx)
     shipped = torch.load(pt, weights_only=True)
     assert "optimizer_state_dict" not in shipped and shipped["iter"] == 1
@@ -71,7 +72,8 @@ def test_a_released_fall_recovery_policy_resumes_where_its_curriculum_was(tmp_pa
     torch.save(saved, original)
     released = release_checkpoint(saved)
     assert released["training_state"] == {"env": {"assist_level": 0.35, "global_steps": 20000}}
-    pt, _ = load_tool("ship_policy").main([str(original), "--name", "fall", "--out", str(tmp_path / "policies")])
+    runs_cli.main(["release", str(original), "--name", "fall", "--out", str(tmp_path / "policies")])
+    pt = str(tmp_path / "policies" / "fall.pt")
     train_cli.main(["--resume", pt, "--max-iterations", "1", "--log-dir", str(tmp_path / "more")])
     env_state = torch.load(tmp_path / "more" / "model_1.pt", weights_only=True)["training_state"]["env"]
     assert env_state["global_steps"] == 20000 + 4  # one iteration of 4 policy steps per env on top
@@ -82,18 +84,24 @@ def test_a_release_is_never_replaced_without_force_and_is_written_whole_or_not_a
     train_cli.main(["--task", "toy", "--max-iterations", "1", "--log-dir", str(tmp_path / "run")])
     original = str(tmp_path / "run" / "model_0.pt")
     out = tmp_path / "policies"
-    ship = load_tool("ship_policy").main
-    pt, onnx = ship([original, "--name", "toy", "--out", str(out)])
-    before = {path: open(path, "rb").read() for path in (pt, onnx)}
-    with pytest.raises(SystemExit, match="exist; give another --name, or --force"):
-        ship([original, "--name", "toy", "--out", str(out)])
-    with pytest.raises(SystemExit, match="above --max-mb 0.0001; nothing written"):
-        ship([original, "--name", "toy", "--out", str(out), "--force", "--max-mb", "0.0001"])
-    assert {path: open(path, "rb").read() for path in (pt, onnx)} == before  # the old release untouched
+
+    def release(*args):
+        runs_cli.main(["release", original, "--out", str(out), *args])
+
+    release("--name", "toy")
+    pt, onnx = out / "toy.pt", out / "toy.onnx"
+    before = {path: path.read_bytes() for path in (pt, onnx)}
+    with pytest.raises(SystemExit, match="^pchc-runs release: .*exist; give another --name, or --force"):
+        release("--name", "toy")
+    with pytest.raises(SystemExit, match="^pchc-runs release: .*above --max-mb 0.0001; nothing written"):
+        release("--name", "toy", "--force", "--max-mb", "0.0001")
+    assert {path: path.read_bytes() for path in (pt, onnx)} == before  # the old release untouched
     with pytest.raises(SystemExit, match="nothing written"):
-        ship([original, "--name", "new", "--out", str(out), "--max-mb", "0.0001"])
+        release("--name", "new", "--max-mb", "0.0001")
     assert sorted(os.listdir(out)) == ["toy.onnx", "toy.pt"]  # no half release, no scratch folder left
-    ship([original, "--name", "toy", "--out", str(out), "--force"])
+    with pytest.raises(SystemExit, match="^pchc-runs release: --name 'sub/toy': give a file name without folders"):
+        release("--name", "sub/toy")
+    release("--name", "toy", "--force")
 
 
 def test_export_onnx_refuses_to_replace_a_file_without_force(tmp_path):

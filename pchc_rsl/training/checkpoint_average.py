@@ -1,8 +1,4 @@
-"""Average the networks of several checkpoints of one run (uniform weight averaging, as in SWA).
-
-    python tools/average_checkpoints.py RUN/model_{350,400,450,500,550}.pt --out avg.pt
-    python tools/average_checkpoints.py A.pt B.pt --weights 0.4 0.6 --actor-only --out mix.pt  # 0.6 of the way to B
-    python tools/average_checkpoints.py A.pt B.pt --weights 1 0 --expert-weights 0 0.25 0.5 0.75 1 --out mix.pt
+"""The networks of several checkpoints of one run, averaged (uniform weight averaging, as in SWA).
 
 Why: late in a run PPO keeps moving the policy, and consecutive checkpoints 50 iterations apart differ by more than
 a table's intervals at the ends of the preference range (docs/design.md, "Checkpoint averaging"). The mean of the
@@ -13,31 +9,29 @@ networks.
 Floating-point tensors of the actor and critic (weights and observation normalisers) and the value normaliser the
 critics predict in are averaged; a normaliser's std is then recomputed as sqrt(var) of its averaged variance (the
 mean of the stds is not the std of the mean variance). Everything else (config, iteration, AMP discriminator,
-curriculum) is the newest checkpoint's. The optimizer state
-is dropped, so ``pchc-train --resume`` starts a fresh one, as for a released policy. The file records what it was
-averaged from under ``averaged_from`` (run folder, file and iteration of each).
+curriculum) is the newest checkpoint's. The optimizer state is dropped, so ``pchc-train --resume`` starts a fresh
+one, as for a released policy. The result records what it was averaged from under ``averaged_from`` (run folder,
+file and iteration of each).
 
-``--weights`` makes it a weighted mean (two checkpoints: a point on the straight line between them in weight space,
-as WiSE-FT interpolates a fine-tuned network with the one it started from). ``--actor-only`` averages the actor and
-takes the critics from the newest checkpoint, for checkpoints whose critics differ in shape (``--init-from`` widens
-the critics of a policy trained without ``critic_command_state``); evaluating and playing use the actor alone.
+Weights make it a weighted mean (two checkpoints: a point on the straight line between them in weight space, as
+WiSE-FT interpolates a fine-tuned network with the one it started from). ``actor_only`` averages the actor and takes
+the critics from the newest checkpoint, for checkpoints whose critics differ in shape (``--init-from`` widens the
+critics of a policy trained without ``critic_command_state``); evaluating and playing use the actor alone.
 
-``--expert-weights`` (two checkpoints of a mixture actor: PCI or the gated ablation) mixes expert by expert: each
-number is the second checkpoint's share in one expert, in the order of the actor's ``mlp.positions`` (printed); the
-rest of the actor (encoder, normaliser, noise) takes ``--weights``, and the critics are the newest checkpoint's (as
-with ``--actor-only``). Experts that serve different preferences can then be moved by different amounts, as the
-walker's experiments in docs/design.md ("Checkpoint averaging") do.
+Expert weights (two checkpoints of a mixture actor: PCI or the gated ablation) mix expert by expert: each number is
+the second checkpoint's share in one expert, in the order of the actor's ``mlp.positions``; the rest of the actor
+(encoder, normaliser, noise) takes the weights, and the critics are the newest checkpoint's (as with ``actor_only``).
+Experts that serve different preferences can then be moved by different amounts, as the walker's experiments in
+docs/design.md ("Checkpoint averaging") do.
 """
 
 from __future__ import annotations
 
-import argparse
 import os
 
 import torch
 
 from pchc_rsl.runners.checkpoint import load_checkpoint
-from pchc_rsl.utils.files import atomic_write
 
 AVERAGED = ("actor_state_dict", "critic_state_dict", "value_normalizer_state_dict")
 EXPERTS = "mlp.experts."
@@ -83,9 +77,10 @@ def checked_weights(weights: list[float] | None, count: int) -> list[float] | No
     if weights is None:
         return None
     if len(weights) != count:
-        raise ValueError(f"Give one weight per checkpoint: {len(weights)} weights for {count} checkpoints.")
+        raise ValueError(f"--weights: give one weight per checkpoint: {len(weights)} weights for {count} "
+                         "checkpoints.")
     if any(w < 0 for w in weights) or sum(weights) <= 0:
-        raise ValueError(f"The weights must be >= 0 and not all 0 (got {weights}).")
+        raise ValueError(f"--weights must be >= 0 and not all 0 (got {weights}).")
     return [w / sum(weights) for w in weights]
 
 
@@ -98,16 +93,17 @@ def expert_shares(saved: dict, paths: list[str], shares: list[float]) -> torch.T
     if not experts:
         raise ValueError(f"{paths[0]}'s actor has no experts ({EXPERTS}*): --expert-weights is for mixture actors.")
     if len(shares) != experts[0].shape[0] or not all(0 <= w <= 1 for w in shares):
-        raise ValueError(f"Give one share in [0, 1] per expert: {len(shares)} for {experts[0].shape[0]} experts "
-                         f"(got {shares}).")
+        raise ValueError(f"--expert-weights: give one share in [0, 1] per expert: {len(shares)} for "
+                         f"{experts[0].shape[0]} experts (got {shares}).")
     second = torch.tensor(shares, dtype=torch.float64)
     return torch.stack([1 - second, second])
 
 
 def average_checkpoints(paths: list[str], weights: list[float] | None = None, actor_only: bool = False,
                         expert_weights: list[float] | None = None) -> dict:
+    """The averaged checkpoint (a dict to save) of ``paths``, in any order: they are sorted by iteration."""
     if len(paths) < 2:
-        raise ValueError("Give at least two checkpoints to average.")
+        raise ValueError(f"give at least two checkpoints to average (got {len(paths)}).")
     weights = checked_weights(weights, len(paths))
     saved = [load_checkpoint(path) for path in paths]
     per_expert = None if expert_weights is None else expert_shares(saved[0], paths, expert_weights)
@@ -129,30 +125,3 @@ def average_checkpoints(paths: list[str], weights: list[float] | None = None, ac
     if per_expert is not None:
         averaged["averaged_expert_weights"] = per_expert.tolist()
     return averaged
-
-
-def main(argv: list[str] | None = None) -> str:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("checkpoints", nargs="+")
-    parser.add_argument("--out", required=True, help="the averaged checkpoint's path")
-    parser.add_argument("--weights", type=float, nargs="+", help="one per checkpoint, in the order given "
-                        "(scaled to sum to 1; default: equal)")
-    parser.add_argument("--actor-only", action="store_true", help="average the actor only; the critics are the "
-                        "newest checkpoint's")
-    parser.add_argument("--expert-weights", type=float, nargs="+", help="two checkpoints of a mixture actor: the "
-                        "second one's share in each expert, in the order of mlp.positions (implies --actor-only)")
-    args = parser.parse_args(argv)
-    averaged = average_checkpoints(args.checkpoints, args.weights, args.actor_only, args.expert_weights)
-    atomic_write(args.out, lambda tmp: torch.save(averaged, tmp))
-    mean = "the weighted mean" if args.weights else "the mean"
-    print(f"average_checkpoints: wrote {args.out}, {mean} of {len(args.checkpoints)} checkpoints "
-          f"(iterations {averaged['averaged_from'][0].rsplit('@', 1)[1]} to {averaged['iter']})")
-    if args.expert_weights:
-        positions = averaged["actor_state_dict"].get("mlp.positions")
-        for share, position in zip(args.expert_weights, [] if positions is None else positions.tolist()):
-            print(f"  expert at lambda = ({', '.join(f'{x:g}' for x in position)}): {share:g} of {args.checkpoints[1]}")
-    return args.out
-
-
-if __name__ == "__main__":
-    main()
