@@ -1,10 +1,10 @@
-"""tools/g1_report.py: the targets are judged on the figures (hand-made results.json files here)."""
+"""tools/release/g1_report.py: the targets are judged on the figures (hand-made results.json files here)."""
 
 import json
 
 from tool_loader import load_tool
 
-g1_report = load_tool("g1_report")
+g1_report = load_tool("release/g1_report")
 
 PREFERENCES = [(1.0, 0.0), (0.75, 0.25), (0.5, 0.5), (0.25, 0.75), (0.0, 1.0)]
 

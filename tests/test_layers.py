@@ -59,9 +59,45 @@ def test_the_import_check_sees_an_import_of_the_cli(tmp_path):
 
 def test_no_library_module_or_tool_imports_the_cli():
     files = list(library_files())
-    assert any(p.name == "build.py" for p in files) and any(p.parent.name == "tools" for p in files)
+    assert any(p.name == "build.py" for p in files) and any(p.parent.name == "studies" for p in files)
     offenders = {str(p.relative_to(ROOT)): hits for p in files if (hits := cli_imports(p))}
     assert offenders == {}, f"library code imports the CLI (move the shared code into a library module): {offenders}"
+
+
+def tool_names() -> set[str]:
+    return {path.stem for path in (ROOT / "tools").rglob("*.py")}
+
+
+def tools_or_path_edits(path: pathlib.Path, tools: set[str]) -> list[str]:
+    """'line: what' for every import of a tool (tools/**/NAME.py imported as NAME) and every edit of sys.path in one
+    file: a tool imports the package, never another tool."""
+    found = []
+    for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+        if isinstance(node, ast.Import):
+            found += [f"{node.lineno}: import {a.name}" for a in node.names if a.name.split(".")[0] in tools]
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module.split(".")[0] in tools:
+            found.append(f"{node.lineno}: from {node.module} import")
+        elif (isinstance(node, ast.Attribute) and isinstance(node.value, ast.Attribute) and node.value.attr == "path"
+              and isinstance(node.value.value, ast.Name) and node.value.value.id == "sys"):
+            found.append(f"{node.lineno}: sys.path.{node.attr}")
+    return sorted(found, key=lambda hit: int(hit.split(":")[0]))
+
+
+def test_the_tool_check_sees_an_import_of_a_tool_and_a_sys_path_edit(tmp_path):
+    sample = tmp_path / "sample.py"
+    sample.write_text("import os, sys\nsys.path.insert(0, os.path.dirname(__file__))\nimport mo_benchmark\n"
+                      "from mo_study import Cell\nfrom pchc_rsl.evaluation import expert_usage\n")
+    assert tools_or_path_edits(sample, {"mo_benchmark", "mo_study", "expert_usage"}) == [
+        "2: sys.path.insert", "3: import mo_benchmark", "4: from mo_study import"]
+
+
+def test_tools_import_the_package_and_never_each_other():
+    tools = tool_names()
+    assert {"mo_benchmark", "g1_report", "bench_env"} <= tools
+    offenders = {str(p.relative_to(ROOT)): hits for p in sorted((ROOT / "tools").rglob("*.py"))
+                 if (hits := tools_or_path_edits(p, tools))}
+    assert offenders == {}, f"a tool imports another tool or edits sys.path (move the shared code into the package): " \
+                            f"{offenders}"
 
 
 def test_a_run_without_the_g1_model_ends_by_counting_its_skipped_g1_tests():

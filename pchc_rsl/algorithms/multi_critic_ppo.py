@@ -245,7 +245,7 @@ class MultiCriticPPO(PPO):
     @staticmethod
     def resolve_amp_config(amp_cfg: dict | None, obs: TensorDict, env: VecEnv) -> dict | None:
         """Fill the AMP input width and the motion frame rate (the policy rate); None (with a note) without motions.
-        Public so that tools rebuild the style reward exactly as training does (tools/style_score.py)."""
+        Public so that tools rebuild the style reward exactly as training does (tools/diagnostics/style_score.py)."""
         if not amp_cfg:
             return None
         amp_cfg = dict(amp_cfg)
