@@ -26,12 +26,16 @@ def build_parser() -> argparse.ArgumentParser:
     verbose = arguments.Parser(add_help=False)
     verbose.add_argument("-v", "--verbose", action="store_true", help="tracebacks instead of one-line errors")
 
-    average = commands.add_parser(
-        "average", parents=[verbose], formatter_class=RAW, help="average the networks of checkpoints of one run",
-        description="Average the actor and critics over checkpoints of one run (uniform weight averaging, as in\n"
+    def command(name: str, summary: str, description: str, examples: str) -> argparse.ArgumentParser:
+        return commands.add_parser(name, parents=[verbose], formatter_class=RAW, help=summary,
+                                   description=description, epilog=examples)
+
+    average = command(
+        "average", "average the networks of checkpoints of one run",
+        "Average the actor and critics over checkpoints of one run (uniform weight averaging, as in\n"
         "SWA; docs/design.md, 'Checkpoint averaging'). Config, iteration and the rest are the newest checkpoint's;\n"
         "the optimizer state is dropped, so pchc-train --resume starts a fresh one.",
-        epilog="examples:\n"
+        "examples:\n"
         "  pchc-runs average RUN/model_{350,400,450,500,550}.pt --out avg.pt\n"
         "  pchc-runs average A.pt B.pt --weights 0.4 0.6 --actor-only --out mix.pt   # 0.6 of the way to B\n"
         "  pchc-runs average A.pt B.pt --weights 1 0 --expert-weights 0 0.25 0.5 0.75 1 --out mix.pt")
@@ -44,13 +48,13 @@ def build_parser() -> argparse.ArgumentParser:
     average.add_argument("--expert-weights", type=float, nargs="+", help="two checkpoints of a mixture actor: the "
                          "second one's share in each expert, in the order of mlp.positions (implies --actor-only)")
 
-    curves = commands.add_parser(
-        "curves", parents=[verbose], formatter_class=RAW, help="plot training curves against env steps and hours",
-        description="Any logged scalar of runs against env steps and against wall-clock hours, from their\n"
+    curves = command(
+        "curves", "plot training curves against env steps and hours",
+        "Any logged scalar of runs against env steps and against wall-clock hours, from their\n"
         "TensorBoard events, and a table of where each curve ended. A resumed run: its folders joined by '+',\n"
         "steps and clock continuing; 'folder@N' keeps that folder's iterations up to N (a branch resumed from\n"
         "its model_N.pt while the folder's own run went on).",
-        epilog="example:\n"
+        "example:\n"
         "  pchc-runs curves logs/run-a logs/run-b+logs/run-b-more \\\n"
         "      --tags Train/mean_reward Episode_Termination/fall --out curves.png")
     curves.add_argument("runs", nargs="+", metavar="RUN", help="run folders (a resumed run: folders joined by '+')")
@@ -62,13 +66,13 @@ def build_parser() -> argparse.ArgumentParser:
                         help="moving-average window in points (default 20)")
     curves.add_argument("--out", default="training_curves.png", help="the figure (default training_curves.png)")
 
-    release = commands.add_parser(
-        "release", parents=[verbose], formatter_class=RAW, help="release a checkpoint as a small .pt and its .onnx",
-        description="Release a checkpoint: a small .pt (no optimizer, replay buffer or random streams; paths in\n"
+    release = command(
+        "release", "release a checkpoint as a small .pt and its .onnx",
+        "Release a checkpoint: a small .pt (no optimizer, replay buffer or random streams; paths in\n"
         "its config cut to file names) and its ONNX export. pchc-eval, pchc-play and pchc-export-onnx read the .pt\n"
         "like any checkpoint; pchc-train --resume continues it with a fresh optimizer. Both files are written or\n"
         "neither; a release already there is only replaced with --force.",
-        epilog="example:\n"
+        "example:\n"
         "  pchc-runs release logs/g1-walk/model_11999.pt --name g1_walk     # -> policies/g1_walk.pt, .onnx")
     release.add_argument("checkpoint", metavar="CKPT", help="a checkpoint written by pchc-train or pchc-runs average")
     release.add_argument("--name", required=True, help="file name without suffix, e.g. g1_walk")

@@ -6,6 +6,8 @@ from __future__ import annotations
 import copy
 from dataclasses import dataclass, field
 
+from pchc_rsl.envs.g1.config import PushConfig
+
 
 @dataclass
 class TaskEvaluation:
@@ -121,8 +123,6 @@ def evenly_spaced_preferences(count: int) -> list[tuple[float, float]]:
 
 def evaluation_preset(cfg, push_preset: str, evaluation: TaskEvaluation):
     """A copy of a task config for evaluation: no randomisation, no noise, no curriculum, the preset's pushes."""
-    from pchc_rsl.envs.g1.config import PushConfig
-
     cfg = copy.deepcopy(cfg)
     env = cfg.env
     env.randomization.enabled = False

@@ -22,6 +22,7 @@ import numpy as np
 
 from pchc_rsl.evaluation import aggregate, evaluation_config, evenly_spaced_preferences, loaded_policy, run_episodes
 from pchc_rsl.evaluation import format_metric, task_config_of
+from pchc_rsl.evaluation.plots import figure
 
 PAPER_MIDDLE = {"fall": {"deviation": 1.62, "survival": 75.73}, "walk": {"deviation": 0.33, "survival": 75.73}}
 """The paper's figures at (0.5, 0.5): Table I's COM displacement and strong-push success, Table II's deviation."""
@@ -77,10 +78,7 @@ def print_tables(results: dict, speeds, deviation_key: str, survival_key: str) -
 
 
 def plot(results: dict, speeds, family: str, deviation_key: str, survival_key: str, chosen, path: str) -> None:
-    from pchc_rsl.evaluation.plots import _pyplot
-
-    plt = _pyplot()
-    fig, (left, right) = plt.subplots(1, 2, figsize=(8, 3.2))
+    fig, (left, right) = figure((8, 3.2), 1, 2)
     for lam, row in results.items():
         left.plot(speeds, [row[s][deviation_key] for s in speeds], "o-", label=f"{lam}")
         right.plot(speeds, [survival(row[s], survival_key) for s in speeds], "o-", label=f"{lam}")
@@ -96,7 +94,6 @@ def plot(results: dict, speeds, family: str, deviation_key: str, survival_key: s
         ax.legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
-    plt.close(fig)
 
 
 def main(argv: list[str] | None = None) -> dict:
