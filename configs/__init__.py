@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import difflib
 from collections.abc import Callable
 
 from pchc_rsl.configs.base import (
@@ -33,8 +34,6 @@ TASKS: dict[str, Callable[[], TaskConfig]] = {
 def task_config(name: str) -> TaskConfig:
     """A fresh config for task ``name``; unknown names list the known ones."""
     if name not in TASKS:
-        import difflib
-
         close = difflib.get_close_matches(str(name), list(TASKS), n=1, cutoff=0.6)
         hint = f" Did you mean '{close[0]}'?" if close else ""
         raise ValueError(f"Unknown task '{name}'.{hint} Known tasks: {', '.join(sorted(TASKS))}.")

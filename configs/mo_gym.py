@@ -13,6 +13,27 @@ from __future__ import annotations
 from pchc_rsl.configs.base import AlgorithmConfig, RunnerConfig, TaskConfig, default_actor, default_critic
 from pchc_rsl.envs.mo_gym import MOGymEnvConfig
 
+REFERENCE_POINTS = {
+    # Below every return a policy that moves at all reaches in 1000 steps; energy objectives: -sum a^2 per step
+    # (6 actuators in [-1, 1] for halfcheetah and walker2d, 3 for hopper) plus the healthy reward where the env
+    # adds it to every objective (walker2d, hopper).
+    "mo-hopper-2obj-v5": (-100.0, -100.0),
+    "mo-halfcheetah-v5": (-100.0, -6000.0),
+    "mo-walker2d-v5": (-100.0, -5000.0),
+    "mo-hopper-v5": (-100.0, -100.0, -2000.0),
+}
+"""Task -> the reference point of the hypervolume of its fronts."""
+OBJECTIVE_RANGES = {
+    # (low, high) per objective for the expected utility. low: the reference point. high: energy 0 (no action) plus
+    # the healthy reward where the env adds it (1 per step for 1000 steps); forward and height: a bound no policy
+    # in these studies reaches in 1000 steps (their best returns are below 4000 on every task).
+    "mo-hopper-2obj-v5": ((-100.0, -100.0), (4000.0, 4000.0)),
+    "mo-halfcheetah-v5": ((-100.0, -6000.0), (5000.0, 0.0)),
+    "mo-walker2d-v5": ((-100.0, -5000.0), (6000.0, 1000.0)),
+    "mo-hopper-v5": ((-100.0, -100.0, -2000.0), (4000.0, 4000.0, 1000.0)),
+}
+"""Task -> (low, high) of each objective's return, which the expected utility normalises by."""
+
 
 def _mo_gym_task(name: str, env: MOGymEnvConfig) -> TaskConfig:
     actor = default_actor()

@@ -1,8 +1,8 @@
 """An rsl-rl VecEnv over N copies of any MO-Gymnasium environment, following the pchc-rsl env contract.
 
-It lets PCHC run on environments nobody here wrote (the check in tools/mo_benchmark.py). The vector reward becomes
-the objective groups of ``extras["reward_groups"]``; the task group is zero unless ``task_reward_weights`` says how
-to build it from the vector reward. Stepping loops over the copies in Python: MO-Gymnasium envs are single-instance
+It lets PCHC run on environments nobody here wrote (the check in tools/studies/mo_benchmark.py). The vector reward
+becomes the objective groups of ``extras["reward_groups"]``; the task group is zero unless ``task_reward_weights`` says
+how to build it from the vector reward. Stepping loops over the copies in Python: MO-Gymnasium envs are single-instance
 Gymnasium envs, and its own vector wrapper resets one step late (Gymnasium's NEXT_STEP mode), which would put a
 zero-reward transition into every rollout.
 

@@ -3,15 +3,14 @@
 from __future__ import annotations
 
 import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
 
 
 class ToyPlot:
     """One matplotlib figure per env, redrawn every frame: goals A and B, the Pareto segment, the path so far."""
 
     def __init__(self, env, width: int, height: int) -> None:
-        from matplotlib.backends.backend_agg import FigureCanvasAgg
-        from matplotlib.figure import Figure
-
         self.env = env
         self.paths: list[list[np.ndarray]] = [[] for _ in range(env.num_envs)]
         self.figure = Figure(figsize=(width / 100, height / 100), dpi=100)

@@ -896,8 +896,8 @@ def test_a_command_sequence_holds_each_row_until_the_next():
     from pchc_rsl.deploy.command_sequence import read_command_sequence
 
     sequence = read_command_sequence("examples/steering_sequence.txt", STEERING_RANGES)
-    # the file is tools/steering_sequence.py's sequence
-    steering = load_tool("steering_sequence")
+    # the file is tools/diagnostics/steering_sequence.py's sequence
+    steering = load_tool("diagnostics/steering_sequence")
     starts = np.cumsum([0.0] + [seconds for _, seconds, _ in steering.SEQUENCE[:-1]])
     assert [(row.start, row.command) for row in sequence.rows] == list(zip(starts, [c for *_, c in steering.SEQUENCE]))
     assert [sequence.at(t).command for t in (0.0, 2.98, 3.0, 8.99, 11.5, 12.0, 100.0)] == [

@@ -145,12 +145,11 @@ def test_a_failing_rank_other_than_0_leaves_rank_0s_run_folder_alone(tmp_path, m
 
     from pchc_rsl.cli import train
     from pchc_rsl.configs import task_config
-    from pchc_rsl.training import build
 
     def failing(*args, **kwargs):
         raise ValueError("this rank failed")
 
-    monkeypatch.setattr(build, "make_runner", failing)
+    monkeypatch.setattr(train, "make_runner", failing)
     monkeypatch.setattr(train, "_stop_on_signals", lambda: None)
     args = argparse.Namespace(threads=None, verbose=False, resume=None, init_from=None)
     for rank, kept in (("1", True), ("0", False)):

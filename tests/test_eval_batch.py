@@ -76,10 +76,11 @@ def interrupt_the_second_call(monkeypatch, module, name: str) -> None:
 def test_an_interrupted_robustness_run_leaves_the_finished_conditions_marked_partial(walk_checkpoint, tmp_path,
                                                                                        monkeypatch):
     from pchc_rsl.cli import eval as eval_cli
-    from pchc_rsl.evaluation import checkpoint
+    from pchc_rsl.cli import eval_run
+    from pchc_rsl.evaluation import robustness
 
-    interrupt_the_second_call(monkeypatch, checkpoint, "evaluate_checkpoint")
-    monkeypatch.setattr(eval_cli, "written_partial", [])
+    interrupt_the_second_call(monkeypatch, robustness, "evaluate_checkpoint")
+    monkeypatch.setattr(eval_run, "written_partial", [])
     out = tmp_path / "rob"
     with pytest.raises(SystemExit, match="interrupted; the conditions that finished are in"):
         eval_cli.main([walk_checkpoint, "--robustness", "--condition", "nominal", "--condition", "latency 20 ms",
@@ -94,10 +95,11 @@ def test_an_interrupted_robustness_run_leaves_the_finished_conditions_marked_par
 def test_an_interrupted_evaluation_leaves_its_first_push_preset_written_marked_partial(walk_checkpoint, tmp_path,
                                                                                        monkeypatch):
     from pchc_rsl.cli import eval as eval_cli
+    from pchc_rsl.cli import eval_run
     from pchc_rsl.evaluation import checkpoint
 
     interrupt_the_second_call(monkeypatch, checkpoint, "run_preference_batch")
-    monkeypatch.setattr(eval_cli, "written_partial", [])
+    monkeypatch.setattr(eval_run, "written_partial", [])
     out = tmp_path / "eval"
     with pytest.raises(SystemExit, match="interrupted; the part that finished is in"):
         eval_cli.main([walk_checkpoint, "--num-envs", "2", "--episodes", "1", "--preferences", "2",

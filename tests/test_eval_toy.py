@@ -8,8 +8,8 @@ import pytest
 import torch
 
 from pchc_rsl.cli import eval as eval_cli
+from pchc_rsl.cli import eval_run
 from pchc_rsl.cli import train as train_cli
-import pchc_rsl.evaluation
 from pchc_rsl.evaluation import TOY_EVALUATION, format_metric
 from pchc_rsl.training.build import make_runner, restore_config
 
@@ -99,7 +99,7 @@ def test_checkpoints_of_different_tasks_are_refused_before_evaluating(toy_checkp
     other = torch.load(toy_checkpoint, weights_only=True)
     other["config"]["task"] = "g1-walk"
     torch.save(other, tmp_path / "walk.pt")
-    monkeypatch.setattr(pchc_rsl.evaluation, "evaluate_checkpoint",
+    monkeypatch.setattr(eval_run, "evaluate_checkpoint",
                         lambda *a, **k: pytest.fail("evaluated before checking"))
     with pytest.raises(SystemExit, match=r"different tasks \['g1-walk', 'toy'\]"):
         eval_cli.main([str(toy_checkpoint), str(tmp_path / "walk.pt"), "--output", str(tmp_path / "eval")])

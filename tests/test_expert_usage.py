@@ -1,4 +1,4 @@
-"""tools/expert_usage.py: the routing weights it reports, against the Beta density computed with scipy."""
+"""tools/diagnostics/expert_usage.py: the routing weights it reports, against the Beta density computed with scipy."""
 
 import numpy as np
 import pytest
@@ -8,7 +8,7 @@ from tool_loader import load_tool
 from pchc_rsl.cli import train as train_cli
 from pchc_rsl.preference import DEFAULT_ROUTING_SCALE
 
-expert_usage = load_tool("expert_usage")
+expert_usage = load_tool("diagnostics/expert_usage")
 
 
 def toy_run(tmp_path, *extra):

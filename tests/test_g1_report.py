@@ -1,10 +1,10 @@
-"""tools/g1_report.py: the targets are judged on the figures (hand-made results.json files here)."""
+"""tools/release/g1_report.py: the targets are judged on the figures (hand-made results.json files here)."""
 
 import json
 
 from tool_loader import load_tool
 
-g1_report = load_tool("g1_report")
+g1_report = load_tool("release/g1_report")
 
 PREFERENCES = [(1.0, 0.0), (0.75, 0.25), (0.5, 0.5), (0.25, 0.75), (0.0, 1.0)]
 
@@ -133,7 +133,7 @@ def test_claim_d_for_fall_recovery_judges_dominance_on_energy_and_com(tmp_path):
 
 def test_training_line_says_where_the_evaluated_checkpoint_sits_on_longer_runs(tmp_path):
     import torch
-    from test_plot_training import fake_run
+    from test_training_plots import fake_run
 
     fake_run(tmp_path / "a", range(0, 10), 360.0)  # 10 iterations of 0.1 h, 4 envs x 10 steps = 40 env steps each
     fake_run(tmp_path / "b", range(10, 15), 720.0)  # resumed: 5 more of 0.2 h -> 600 env steps, 2.0 h in all
@@ -151,7 +151,7 @@ def test_training_line_says_where_the_evaluated_checkpoint_sits_on_longer_runs(t
 
 def test_no_position_on_the_curves_for_a_checkpoint_whose_lineage_restarted_its_iterations(tmp_path):
     import torch
-    from test_plot_training import fake_run
+    from test_training_plots import fake_run
 
     fake_run(tmp_path / "a", range(0, 10), 360.0)
     fake_run(tmp_path / "b", range(0, 10), 360.0)  # --init-from a's checkpoint: iterations count from 0 again

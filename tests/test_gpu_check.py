@@ -15,7 +15,7 @@ ROOT = os.path.join(os.path.dirname(__file__), "..")
 @pytest.mark.skipif(torch.cuda.is_available(), reason="a GPU is here: the check would run for minutes")
 def test_without_a_gpu_the_check_refuses_in_one_verdict_line_and_writes_its_summary(tmp_path):
     summary = tmp_path / "summary.json"
-    result = subprocess.run(["bash", os.path.join(ROOT, "tools", "gpu_check.sh"), "--summary", str(summary)],
+    result = subprocess.run(["bash", os.path.join(ROOT, "tools", "gpu", "gpu_check.sh"), "--summary", str(summary)],
                             capture_output=True, text=True, timeout=300, cwd=tmp_path)
     assert result.returncode == 1
     last = result.stdout.strip().splitlines()[-1]
@@ -27,7 +27,7 @@ def test_without_a_gpu_the_check_refuses_in_one_verdict_line_and_writes_its_summ
 
 
 def test_unknown_options_are_named():
-    result = subprocess.run(["bash", os.path.join(ROOT, "tools", "gpu_check.sh"), "--fast"], capture_output=True,
+    result = subprocess.run(["bash", os.path.join(ROOT, "tools", "gpu", "gpu_check.sh"), "--fast"], capture_output=True,
                             text=True, timeout=60)
     assert result.returncode == 2 and "unknown option '--fast'" in result.stdout
 
@@ -40,7 +40,7 @@ def test_the_learn_check_runs_runner_learn_on_warp_and_reports_peaks_and_the_ste
     if not g1_available():
         pytest.skip("the G1 model is not available (set MENAGERIE_ROOT)")
     out = tmp_path / "learn.json"
-    assert load_tool("gpu_learn_check").main(["--device", "cpu", "--num-envs", "2", "--iterations", "2",
+    assert load_tool("gpu/gpu_learn_check").main(["--device", "cpu", "--num-envs", "2", "--iterations", "2",
                                               "--json", str(out)]) == 0
     result = json.loads(out.read_text())["results"][0]
     physics = result["physics"]

@@ -117,8 +117,9 @@ def _hypervolume_2d(points, ref):
 
 
 def test_benchmark_tool_trains_evaluates_and_reports_the_front(tmp_path):
-    result = load_tool("mo_benchmark").main(["--task", HOPPER, "--variant", "pci", "--steps", "2048", "--num-envs", "4",
-                                     "--preferences", "3", "--episodes", "2", "--out", str(tmp_path)])
+    benchmark = load_tool("studies/mo_benchmark")
+    result = benchmark.main(["--task", HOPPER, "--variant", "pci", "--steps", "2048", "--num-envs", "4",
+                             "--preferences", "3", "--episodes", "2", "--out", str(tmp_path)])
     saved = json.loads((tmp_path / "result.json").read_text())
     assert (tmp_path / "pareto.png").is_file()
     assert saved["env_steps"] == 2048 and len(saved["rows"]) == 3
@@ -128,7 +129,7 @@ def test_benchmark_tool_trains_evaluates_and_reports_the_front(tmp_path):
 
 
 def test_three_objective_evaluation_covers_the_simplex_lattice():
-    preferences = load_tool("mo_benchmark").evaluation_preferences(3, 11, 6)
+    preferences = load_tool("studies/mo_benchmark").evaluation_preferences(3, 11, 6)
     assert len(preferences) == 28  # (6 + 2 choose 2)
     points = np.array(preferences)
     np.testing.assert_allclose(points.sum(1), 1.0, atol=1e-6)
@@ -139,7 +140,7 @@ def test_three_objective_evaluation_covers_the_simplex_lattice():
 
 def test_benchmark_evaluates_on_a_step_grid_and_keeps_each_evaluations_returns(tmp_path):
     """4 envs x 128 steps = 512 per update; a 600-step grid lands after updates 2 and 3 (1024 and 1536 steps)."""
-    benchmark = load_tool("mo_benchmark")
+    benchmark = load_tool("studies/mo_benchmark")
     benchmark.main(["--task", HOPPER, "--variant", "pci", "--steps", "1536", "--num-envs", "4", "--preferences", "3",
                     "--episodes", "1", "--eval-every", "600", "--out", str(tmp_path)])
     saved = json.loads((tmp_path / "result.json").read_text())
@@ -158,7 +159,7 @@ def test_benchmark_evaluates_on_a_step_grid_and_keeps_each_evaluations_returns(t
 
 
 def test_evaluation_grid_is_in_env_steps_and_ends_at_the_last_update():
-    grid = load_tool("mo_benchmark").evaluation_iterations
+    grid = load_tool("studies/mo_benchmark").evaluation_iterations
     # 2048 steps per update, 2M steps: 977 updates; 250k-step marks after updates 123, 245, ..., 977 (= the last)
     iterations = grid(977, 2048, 250_000)
     assert iterations[:2] == [123, 245] and iterations[-1] == 977 and len(iterations) == 8
@@ -169,9 +170,8 @@ def test_evaluation_grid_is_in_env_steps_and_ends_at_the_last_update():
 def test_the_matched_gate_has_pcis_expert_count_and_parameter_count():
     """The paper's ablation swaps the routing only: same number of experts, parameters as close as a whole expert
     width allows (within 1.5% here: one unit of width is 400-900 parameters)."""
-    from pchc_rsl.configs import task_config
+    from pchc_rsl.configs import matched_gate, task_config
 
-    matched_gate = load_tool("matched_gate")
     for task, experts in [("mo-halfcheetah-v5", 5), ("mo-hopper-v5", 6)]:
         cfg = task_config(task)
         env = MOGymVecEnv(cfg.env, 1, "cpu", 0)
@@ -206,7 +206,7 @@ def gated_counts(task, matched_gate):
 def test_an_interrupted_benchmark_resumes_and_redoes_a_lost_evaluation_exactly(tmp_path):
     """Run 3 updates evaluated after updates 2 and 3; then lose everything after update 2's checkpoint, as a run
     stopped during its evaluation would, and resume: the lost evaluation is redone from the checkpoint."""
-    benchmark = load_tool("mo_benchmark")
+    benchmark = load_tool("studies/mo_benchmark")
     argv = ["--task", HOPPER, "--variant", "pci", "--steps", "1536", "--num-envs", "4", "--preferences", "3",
             "--episodes", "1", "--eval-every", "600", "--out", str(tmp_path)]
     benchmark.main(argv)

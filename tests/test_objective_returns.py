@@ -1,4 +1,5 @@
-"""tools/objective_returns.py sums each env's first episode's reward groups, whatever the episode lengths."""
+"""tools/diagnostics/objective_returns.py sums each env's first episode's reward groups, whatever the episode
+lengths."""
 
 import torch
 from tool_loader import load_tool
@@ -31,6 +32,7 @@ class ScriptedEnv:
 
 
 def test_first_episode_returns_match_a_hand_sum():
-    returns = load_tool("objective_returns").first_episode_returns(ScriptedEnv(), lambda obs: obs, (1.0, 0.0))
+    tool = load_tool("diagnostics/objective_returns")
+    returns = tool.first_episode_returns(ScriptedEnv(), lambda obs: obs, (1.0, 0.0))
     # env 0: steps 1-3; env 1: steps 1-2 (its second episode, steps 3-4, is not counted)
     torch.testing.assert_close(returns, torch.tensor([[6.0, 60.0], [3.0, 30.0]]))

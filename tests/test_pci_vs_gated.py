@@ -1,4 +1,5 @@
-"""tools/pci_vs_gated.py: the paired interval, each run's figure from the evaluation grid, and the report's rows."""
+"""tools/studies/pci_vs_gated.py: the paired interval, each run's figure from the evaluation grid, and the report's
+rows."""
 
 import json
 import math
@@ -7,7 +8,7 @@ import numpy as np
 import pytest
 from tool_loader import load_tool
 
-pci_vs_gated = load_tool("pci_vs_gated")
+pci_vs_gated = load_tool("studies/pci_vs_gated")
 
 
 def test_paired_log_ratio_interval_is_scipys_paired_t_interval():

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 import torch
 
-from pchc_rsl.cli import play
+from pchc_rsl.cli import play, play_run
 from pchc_rsl.evaluation import TOY_STEPS_PER_SECOND, load_policy
 from pchc_rsl.viewers import native
 
@@ -182,6 +182,38 @@ def test_keys_move_lambda_push_and_reset(walk_checkpoint):
         assert int(env.episode_length_buf[0]) == 0 and not env.pushes.active[0]
 
 
+MUJOCO_GL_AT_IMPORT = """
+import os, sys
+seen = []
+class FirstMujocoImport:
+    def find_spec(self, name, path=None, target=None):
+        if name == "mujoco" and not seen:
+            seen.append(os.environ.get("MUJOCO_GL"))
+sys.meta_path.insert(0, FirstMujocoImport())
+from pchc_rsl.cli import {command}
+try:
+    {command}.main({argv})
+except SystemExit:
+    pass
+print(seen)
+"""
+"""Runs a command on a checkpoint that is not there (it stops once it reads the file) and prints MUJOCO_GL as it was
+when mujoco was first imported, which is when MuJoCo reads it."""
+
+
+@pytest.mark.parametrize("command, video", [("eval", ["--video"]), ("play", ["--video", "x.mp4"])])
+def test_without_a_display_video_chooses_egl_before_mujoco_loads(command, video, tmp_path):
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY", "MUJOCO_GL")}
+    cases = [([*video], {}, "['egl']"), ([], {}, "[None]"), ([*video], {"MUJOCO_GL": "glfw"}, "['glfw']"),
+             ([*video], {"DISPLAY": ":7"}, "[None]")]
+    for flags, extra, expected in cases:
+        argv = [str(tmp_path / "missing.pt"), *flags]
+        result = subprocess.run([sys.executable, "-c", MUJOCO_GL_AT_IMPORT.format(command=command, argv=argv)],
+                                env={**env, **extra}, capture_output=True, text=True, timeout=120, cwd=tmp_path)
+        assert result.returncode == 0, result.stderr
+        assert result.stdout.strip().splitlines()[-1] == expected, (flags, extra, result.stdout, result.stderr)
+
+
 def free_display(xvfb):
     """Start Xvfb on a display it chooses itself; returns (process, ':N')."""
     read, write = os.pipe()
@@ -251,8 +283,8 @@ def test_without_a_display_the_viewer_is_the_web_page(monkeypatch):
     monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
     monkeypatch.setattr(sys, "platform", "linux")
     calls = []
-    monkeypatch.setattr(play, "watch_in_browser", lambda checkpoint, preference, args: calls.append(checkpoint))
-    monkeypatch.setattr(play, "watch_checkpoint", lambda *args: pytest.fail("the native viewer needs a display"))
+    monkeypatch.setattr(play_run, "watch_in_browser", lambda checkpoint, preference, args: calls.append(checkpoint))
+    monkeypatch.setattr(play_run, "watch_checkpoint", lambda *args: pytest.fail("the native viewer needs a display"))
     play.main(["model.pt"])
     assert calls == ["model.pt"]
 
@@ -274,14 +306,13 @@ def test_a_fixed_preference_checkpoint_is_shown_at_its_preference(tmp_path, monk
     """A policy trained at one lambda means nothing at the others: without --preference it is shown at the one it
     was trained at; a --preference given is shown as asked."""
     from pchc_rsl.cli import train
-    from pchc_rsl.viewers import recording
 
     train.main(["--task", "toy", "--num-envs", "8", "--max-iterations", "1", "--fixed-preference", "0.2,0.8",
                 "--log-dir", str(tmp_path / "fixed")])
     checkpoint = str(tmp_path / "fixed" / "model_0.pt")
     shown = []
-    monkeypatch.setattr(recording, "record_checkpoint_video", lambda path, preferences, *rest: shown.append(preferences))
-    monkeypatch.setattr(play, "watch_in_browser", lambda path, preference, args: shown.append(preference))
+    monkeypatch.setattr(play_run, "record_checkpoint_video", lambda path, preferences, *rest: shown.append(preferences))
+    monkeypatch.setattr(play_run, "watch_in_browser", lambda path, preference, args: shown.append(preference))
     play.main([checkpoint, "--video", str(tmp_path / "t.gif")])
     play.main([checkpoint, "--viewer", "web"])
     play.main([checkpoint, "--video", str(tmp_path / "t.gif"), "--preference", "1,0"])  # asked for: shown

@@ -62,3 +62,7 @@ def test_the_quickstart_and_the_training_guide_run_as_written(tmp_path):
             if line.startswith("pchc-train --task toy"):
                 run(line, tmp_path)
     assert (tmp_path / "logs/toy-custom/model_59.pt").is_file() and (tmp_path / "logs/toy-tuned").is_dir()
+    for line in code_lines(section("After training: `pchc-runs`", guide)):
+        run(line, tmp_path)
+    assert sorted(os.listdir(tmp_path / "logs/policies")) == ["toy.onnx", "toy.pt"]
+    assert (tmp_path / "logs/toy-curves.png").read_bytes()[:4] == b"\x89PNG"

@@ -1,9 +1,9 @@
-"""tools/reward_terms.py: the per-term pay it reports adds up to the reward the env pays."""
+"""tools/diagnostics/reward_terms.py: the per-term pay it reports adds up to the reward the env pays."""
 
 import torch
 from tool_loader import load_tool
 
-reward_terms = load_tool("reward_terms")
+reward_terms = load_tool("diagnostics/reward_terms")
 
 
 class RecordingEnv:

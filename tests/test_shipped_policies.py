@@ -74,12 +74,13 @@ def test_shipped_walker_stays_up_and_strides_longer_at_the_stride_end(tmp_path):
 
 
 def test_push_sweep_finds_no_falls_without_a_push_and_all_falls_under_a_huge_one(capsys):
-    """tools/push_sweep.py on the shipped fall-recovery policy: a 0 m/s push leaves it standing, a 6 m/s one
+    """tools/diagnostics/push_sweep.py on the shipped fall-recovery policy: a 0 m/s push leaves it standing, a 6 m/s one
     (a sprinter's speed, given in an instant) topples it at both end preferences."""
     from tool_loader import load_tool
 
-    results = load_tool("push_sweep").main([shipped("g1_fall_recovery"), "--speeds", "0", "6", "--num-envs", "4",
-                                            "--preferences", "2", "--window", "3"])["results"]
+    push_sweep = load_tool("diagnostics/push_sweep")
+    results = push_sweep.main([shipped("g1_fall_recovery"), "--speeds", "0", "6", "--num-envs", "4",
+                               "--preferences", "2", "--window", "3"])["results"]
     for lam in [(1.0, 0.0), (0.0, 1.0)]:
         assert results[lam][0.0]["success"] == 100.0
         assert results[lam][6.0]["success"] == 0.0
@@ -92,7 +93,7 @@ def test_the_push_calibration_rule_on_a_hand_made_sweep():
     whose success is nearest 75.7% (2.5 m/s: 85%, against 60% at 3.0)."""
     from tool_loader import load_tool
 
-    choose = load_tool("push_sweep").choose_presets
+    choose = load_tool("diagnostics/push_sweep").choose_presets
     sweep = {1.0: {"com_displacement": 0.5, "success": 100.0}, 2.0: {"com_displacement": 1.5, "success": 95.0},
              2.5: {"com_displacement": 1.7, "success": 85.0}, 3.0: {"com_displacement": 2.5, "success": 60.0}}
     assert choose(sweep, "fall", "com_displacement", "success") == (2.0, 2.5)

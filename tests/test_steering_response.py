@@ -1,4 +1,5 @@
-"""tools/steering_response.py: the measured yaw rate, speed and heading change of a walker with known motion."""
+"""tools/diagnostics/steering_response.py: the measured yaw rate, speed and heading change of a walker with known
+motion."""
 
 import math
 from types import SimpleNamespace
@@ -7,7 +8,7 @@ import pytest
 import torch
 from tool_loader import load_tool
 
-steering_response = load_tool("steering_response")
+steering_response = load_tool("diagnostics/steering_response")
 
 
 class TurningEnv:

@@ -1,4 +1,4 @@
-"""tools/style_score.py: the style reward it reports is Peng et al.'s c max(0, 1 - (D - 1)^2 / 4) of the
+"""tools/diagnostics/style_score.py: the style reward it reports is Peng et al.'s c max(0, 1 - (D - 1)^2 / 4) of the
 discriminator's score, and a checkpoint without AMP is refused in one line."""
 
 import sys
@@ -11,7 +11,7 @@ from tool_loader import load_tool
 
 from pchc_rsl.robots.g1.constants import WALK_JOINTS
 
-style_score = load_tool("style_score")
+style_score = load_tool("diagnostics/style_score")
 
 
 def test_style_reward_is_the_clipped_square_of_the_score(tmp_path):

@@ -1,4 +1,4 @@
-"""tools/velocity_sway.py: the sway of a base whose velocity is a known sine, against numpy's std of it."""
+"""tools/diagnostics/velocity_sway.py: the sway of a base whose velocity is a known sine, against numpy's std of it."""
 
 import math
 from types import SimpleNamespace
@@ -8,7 +8,7 @@ import pytest
 import torch
 from tool_loader import load_tool
 
-velocity_sway = load_tool("velocity_sway")
+velocity_sway = load_tool("diagnostics/velocity_sway")
 
 
 class SwayingEnv:

@@ -12,7 +12,7 @@ pytest.importorskip("mujoco_warp", reason="the warp extra is not installed")
 
 
 def test_the_same_physics_agrees_and_a_different_one_fails(tmp_path, capsys):
-    parity = load_tool("warp_parity")
+    parity = load_tool("gpu/warp_parity")
     out = tmp_path / "parity.json"
     assert parity.main(["--device", "cpu", "--num-envs", "4", "--steps", "12", "--json", str(out)]) == 0
     same = json.loads(out.read_text())

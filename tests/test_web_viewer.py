@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pchc_rsl.viewers.web import WebViewerUnavailable, check_port, preference_from_sliders
+from pchc_rsl.viewers.web_page import WebViewerUnavailable, check_port, preference_from_sliders
 
 WALK = "policies/g1_walk.pt"
 
@@ -58,7 +58,7 @@ def test_a_port_in_use_is_named_with_a_free_one():
 def test_a_missing_viser_names_the_extra(monkeypatch):
     import builtins
 
-    from pchc_rsl.viewers import web
+    from pchc_rsl.viewers import web_page
 
     real_import = builtins.__import__
 
@@ -69,7 +69,7 @@ def test_a_missing_viser_names_the_extra(monkeypatch):
 
     monkeypatch.setattr(builtins, "__import__", no_viser)
     with pytest.raises(WebViewerUnavailable, match=r'pip install -e "\.\[web\]"'):
-        web.require_viser()
+        web_page.require_viser()
 
 
 @pytest.fixture(scope="module")

@@ -1,6 +1,7 @@
 """The wheel, as a user installs it: built from this tree, it holds every module; installed (not editable) into a
 fresh venv that borrows this venv's dependencies, it runs from outside the source tree: every console script's
---help, then the toy's train -> export -> eval -> play (slow, a minute or two; .ci/run runs it).
+--help (and each subcommand's), then the toy's train -> export -> eval -> play, and pchc-runs on the toy's run (slow,
+a minute or two; .ci/run runs it).
 
 Every other test imports the editable install, which finds any package in the tree whether the wheel holds it or not."""
 
@@ -15,8 +16,11 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 
-CONSOLE_SCRIPTS = {"pchc-train", "pchc-export-onnx", "pchc-eval", "pchc-play", "pchc-deploy", "pchc-sim-bridge"}
-"""The commands the README and docs name."""
+CONSOLE_SCRIPTS = {"pchc-train", "pchc-export-onnx", "pchc-eval", "pchc-play", "pchc-deploy", "pchc-sim-bridge",
+                   "pchc-runs"}
+"""The commands the README and docs name (the test fails when the wheel declares another)."""
+SUBCOMMANDS = {"pchc-runs": ("average", "curves", "release")}
+"""The commands of the console scripts that have them."""
 
 NOT_SOURCE = shutil.ignore_patterns(".git", ".venv", "build", "dist", "*.egg-info", "__pycache__", ".pytest_cache",
                                     "logs", "runs", "eval")
@@ -134,6 +138,8 @@ def test_the_wheel_installed_in_a_fresh_venv_runs_every_command_and_the_toy_from
 
     for script in sorted(CONSOLE_SCRIPTS):
         assert "usage:" in run([script, "--help"], work, env), script
+        for command in SUBCOMMANDS.get(script, ()):
+            assert f"usage: {script} {command} " in run([script, command, "--help"], work, env)
 
     run(["pchc-train", "--task", "toy", "--num-envs", "16", "--max-iterations", "2", "--log-dir", "run"], work, env)
     checkpoint = work / "run" / "model_1.pt"
@@ -149,3 +155,9 @@ def test_the_wheel_installed_in_a_fresh_venv_runs_every_command_and_the_toy_from
     assert sorted(os.listdir(work / "run" / "eval")) == ["pareto.png", "results.json", "table.md"]
     run(["pchc-play", str(checkpoint), "--video", "run/toy.gif", "--preference", "1,0", "--seconds", "1"], work, env)
     assert (work / "run" / "toy.gif").read_bytes()[:6] == b"GIF89a"
+
+    run(["pchc-runs", "average", "run/model_0.pt", "run/model_1.pt", "--out", "run/averaged.pt"], work, env)
+    run(["pchc-runs", "release", "run/averaged.pt", "--name", "toy", "--out", "policies"], work, env)
+    assert sorted(os.listdir(work / "policies")) == ["toy.onnx", "toy.pt"]
+    run(["pchc-runs", "curves", "run", "--out", "run/curves.png"], work, env)
+    assert (work / "run" / "curves.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -22,7 +22,8 @@ class RewardGroups:
         self.dt = dt
 
     def term_pay(self, env) -> torch.Tensor:
-        """[N, terms] each term's weight * value at the env's current state, per second (tools/reward_terms.py)."""
+        """[N, terms] each term's weight * value at the env's current state, per second
+        (tools/diagnostics/reward_terms.py)."""
         return torch.stack([term.weight * func(env, **term.params) for func, term in self.terms], dim=-1)
 
     def compute(self, env) -> torch.Tensor:

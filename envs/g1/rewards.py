@@ -192,13 +192,13 @@ def stride(env, along_heading: bool = True, min_command: float = 0.1, speed_std:
     but they add up in the distance from the path. Measured, it does not hold the stride end to its command either
     (docs/design.md, "Action noise"), so the walking config leaves it off.
 
-    ``average_speed_std`` (m/s; None: off) gates the step on the averaged velocity (``env.command.velocity_average``,
-    as ``track_average_lin_vel_xy`` reads it): exp(-||v_cmd_xy - v_avg_xy||^2 / average_speed_std^2). The base sways
+    ``average_speed_std`` (m/s; None: off) gates the step on the averaged velocity (``env.command.velocity_average``, as
+    ``track_average_lin_vel_xy`` reads it): exp(-||v_cmd_xy - v_avg_xy||^2 / average_speed_std^2). The base sways
     sideways with every step (the released walker's sideways velocity has a std of 0.05-0.08 m/s, most at the stride
-    end; forward 0.02-0.04; `tools/velocity_sway.py`), so a narrow gate on the instantaneous velocity charges the
-    gait's sway as much as a bias of the mean speed; on the average (std 0.004-0.017) it charges the bias. Measured, it
-    does not hold the stride end to its command either (docs/design.md, "Action noise"), so the walking config leaves
-    it off.
+    end; forward 0.02-0.04; `tools/diagnostics/velocity_sway.py`), so a narrow gate on the instantaneous velocity
+    charges the gait's sway as much as a bias of the mean speed; on the average (std 0.004-0.017) it charges the bias.
+    Measured, it does not hold the stride end to its command either (docs/design.md, "Action noise"), so the walking
+    config leaves it off.
 
     ``commanded_length`` pays every step as the step that its cadence makes at the commanded speed, faster or slower:
     length x |v_cmd| / v, v the averaged velocity (``env.command.velocity_average``) along the commanded direction, at

@@ -86,7 +86,8 @@ class G1Mirror:
 
     @staticmethod
     def apply(values: torch.Tensor, permutation: tuple[torch.Tensor, torch.Tensor]) -> torch.Tensor:
-        """``index_select`` rather than advanced indexing: the same columns, faster on a CPU (tools/bench_update.py)."""
+        """``index_select`` rather than advanced indexing: the same columns, faster on a CPU
+        (tools/benchmarks/bench_update.py)."""
         index, sign = permutation
         return values.index_select(-1, index.to(values.device)) * sign.to(values.device, values.dtype)
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import mujoco
 
+from pchc_rsl.envs.physics.batched_mujoco import BatchedMuJoCo
 from pchc_rsl.envs.physics.warp_settings import WarpSettings
 
 BACKENDS = ("mujoco", "warp")
@@ -21,9 +22,7 @@ def make_physics(backend: str, models: list[mujoco.MjModel], num_envs: int, subs
     """BatchedMuJoCo (threads: native threads stepping the batch) or WarpMuJoCo on ``device`` with ``warp``'s
     buffers and solver settings."""
     if backend == "warp":
-        from pchc_rsl.envs.physics.warp_mujoco import WarpMuJoCo
+        from pchc_rsl.envs.physics.warp_mujoco import WarpMuJoCo  # MuJoCo Warp: the optional warp extra
 
         return WarpMuJoCo(models, num_envs, substeps, device, with_body_forces=with_body_forces, settings=warp)
-    from pchc_rsl.envs.physics.batched_mujoco import BatchedMuJoCo
-
     return BatchedMuJoCo(models, num_envs, substeps, num_threads, with_body_forces=with_body_forces)

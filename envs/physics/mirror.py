@@ -3,7 +3,7 @@
 An env draws its randomness (start states, commands, pushes, action delays) on its own device; two envs on two
 devices draw different numbers from one seed. Mirroring the calls of one env's physics instead feeds every mirror
 the same resets, controls, body forces and state writes (a push's velocity kick), so that what differs between
-them is the physics alone (``tools/warp_parity.py``, ``tools/solver_iterations.py``).
+them is the physics alone (``tools/gpu/warp_parity.py``, ``tools/gpu/solver_iterations.py``).
 """
 
 from __future__ import annotations

@@ -7,6 +7,10 @@ driver Warp sees no CUDA device at all and the first allocation fails with "Inva
 
 from __future__ import annotations
 
+import importlib.metadata
+
+import torch
+
 TESTED_MUJOCO_WARP = ("4.0.0",)
 """mujoco-warp versions this project is tested with (warp_mujoco.py reads a private helper of it)."""
 
@@ -20,7 +24,6 @@ def _version(version) -> str:
 
 def warp_cuda_problem(device: str) -> str | None:
     """Why Warp cannot use ``device`` (a CUDA device), or None when it can."""
-    import torch
     import warp as wp
 
     wp.init()
@@ -74,11 +77,9 @@ def cuda_graph_problem(wp_device) -> str | None:
 
 def mujoco_warp_version_note() -> str | None:
     """A warning line when the installed mujoco-warp is not one this project was tested with."""
-    from importlib.metadata import PackageNotFoundError, version
-
     try:
-        installed = version("mujoco-warp")
-    except PackageNotFoundError:
+        installed = importlib.metadata.version("mujoco-warp")
+    except importlib.metadata.PackageNotFoundError:
         return None
     if installed in TESTED_MUJOCO_WARP:
         return None

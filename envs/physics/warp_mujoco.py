@@ -19,6 +19,7 @@ own printf per world and step is switched off.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 
 import mujoco
@@ -88,8 +89,6 @@ def _fold(nefc: wp.array(dtype=int), niter: wp.array(dtype=int), nacon: wp.array
 
 def batchable_fields() -> list[str]:
     """Model fields MuJoCo Warp can give a leading batch dimension (their array spec starts with '*')."""
-    import dataclasses
-
     try:
         from mujoco_warp._src.warp_util import is_array_spec
     except ImportError as error:

@@ -3,7 +3,7 @@
 C MuJoCo grows its buffers as a step needs; Warp allocates them once, for every world, and drops what does not fit
 (contacts, constraint rows): a robot lying on the floor touches it with most of its body and needs about twice the
 rows of a standing one (about 64 against 32). The sizes below come from the peaks measured on Warp over prone, lying
-and fallen G1s of both tasks (``tools/warp_buffers.py``; figures and memory in docs/gpu.md), with a margin of 2.5;
+and fallen G1s of both tasks (``tools/gpu/warp_buffers.py``; figures and memory in docs/gpu.md), with a margin of 2.5;
 fall recovery, whose robots spend their episodes on the floor, sets more (configs/g1_fall_recovery.py).
 """
 

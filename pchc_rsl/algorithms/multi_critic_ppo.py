@@ -248,7 +248,8 @@ class MultiCriticPPO(PPO):
     def resolve_amp_config(amp_cfg: dict | None, obs: TensorDict, env: VecEnv) -> dict | None:
         """Fill the AMP input width, the motion frame rate (the policy rate) and, from an env that tells them
         (``joint_ranges(names)``), the robot's joint ranges the clips must respect; None (with a note) without
-        motions. Public so that tools rebuild the style reward exactly as training does."""
+        motions. Public so that tools rebuild the style reward exactly as training does
+        (tools/diagnostics/style_score.py)."""
         if not amp_cfg:
             return None
         amp_cfg = dict(amp_cfg)

@@ -12,8 +12,15 @@ import sys
 import tempfile
 
 from pchc_rsl.cli import arguments
-from pchc_rsl.cli.sim_bridge import add_simulation_arguments, check_band_arguments
+from pchc_rsl.cli.simulation_arguments import add_simulation_arguments, check_band_arguments
+from pchc_rsl.deploy.command_sequence import read_command_sequence
+from pchc_rsl.deploy.live_controls import KEY_HELP, REMOTE_HELP, Command, KeyReader, check_preference, command_ranges_of
+from pchc_rsl.deploy.lowcmd_stream import check_lowcmd_rate
+from pchc_rsl.deploy.policy_file import read_metadata
+from pchc_rsl.deploy.real_time import behind_real_time, judged
+from pchc_rsl.deploy.sdk import DdsRobot
 from pchc_rsl.deploy.stand_still import GYRO_BOUND, WINDOW_S
+from pchc_rsl.deploy.web_console import DeployConsole
 
 PROG = "pchc-deploy"
 
@@ -31,8 +38,6 @@ def command_vector(text: str) -> list[float]:
 
 
 def main(argv: list[str] | None = None) -> None:
-    from pchc_rsl.deploy.live_controls import KEY_HELP, REMOTE_HELP
-
     parser = arguments.Parser(
         prog=PROG,
         description="Run a policy exported by pchc-export-onnx on a G1: wait for rt/lowstate -> zero torque -> "
@@ -118,8 +123,6 @@ def main(argv: list[str] | None = None) -> None:
     print("\n".join(summary_lines(report, args.report)), flush=True)
     bridge = report.get("bridge")
     if bridge is not None and not bridge["kept_real_time"]:
-        from pchc_rsl.deploy.real_time import behind_real_time
-
         raise SystemExit(f"{PROG}: {behind_real_time(bridge)}")
 
 
@@ -131,11 +134,6 @@ def one_line(error: BaseException) -> str:
 def checked_setup(args, simulated: bool, seconds: float | None = None) -> dict:
     """Everything the arguments must agree with the policy file on, checked from its metadata before the network,
     torch or DDS load: the preference, the command or command sequence, the LowCmd rate."""
-    from pchc_rsl.deploy.command_sequence import read_command_sequence
-    from pchc_rsl.deploy.live_controls import Command, check_preference, command_ranges_of
-    from pchc_rsl.deploy.lowcmd_stream import check_lowcmd_rate
-    from pchc_rsl.deploy.policy_file import read_metadata
-
     meta = read_metadata(args.policy)
     names = list(meta["objective_names"])
     preference = check_preference(args.preference if args.preference else [1.0 / len(names)] * len(names), names)
@@ -158,8 +156,8 @@ def checked_setup(args, simulated: bool, seconds: float | None = None) -> dict:
 
 
 def deploy(args, seconds: float | None, setup: dict) -> dict:
+    # torch loads here, once checked_setup has held the arguments against the policy file's metadata
     from pchc_rsl.deploy.deployment import AutoSequence, Deployment, InProcessRobot, WallClockRobot
-    from pchc_rsl.deploy.live_controls import KEY_HELP, KeyReader
     from pchc_rsl.deploy.policy_step import PolicyStep
 
     policy = PolicyStep(args.policy)
@@ -173,7 +171,7 @@ def deploy(args, seconds: float | None, setup: dict) -> dict:
         print(f"{PROG}: command sequence {sequence}, from the policy's start", flush=True)
     auto = AutoSequence(hold_s=args.hold_seconds) if (args.sim or args.mujoco) else None
     if args.mujoco:
-        from pchc_rsl.deploy.simulator import G1Simulator
+        from pchc_rsl.deploy.simulator import G1Simulator  # MuJoCo: never loaded on a robot
 
         sim = G1Simulator(timestep=args.timestep, latency_s=args.latency_ms / 1e3, jitter_s=args.jitter_ms / 1e3,
                           hold_up_s=args.hold_up, pd_on_arrival=args.pd_on_arrival, scene=args.scene,
@@ -183,9 +181,6 @@ def deploy(args, seconds: float | None, setup: dict) -> dict:
         run.run(seconds)
         return with_fall(run.report(list(sim.trace)), sim.fell, sim.driven_distance()) | {
             "min_height_after_release": sim.min_height_after_release, "band_force_left": sim.band_force_left}
-
-    from pchc_rsl.deploy.real_time import judged
-    from pchc_rsl.deploy.sdk import DdsRobot
 
     bridge, bridge_report = None, None
     if args.sim:
@@ -210,8 +205,6 @@ def deploy(args, seconds: float | None, setup: dict) -> dict:
             print(f"{PROG}: {KEY_HELP}", flush=True)
         inputs = [keys]
         if args.web is not None:
-            from pchc_rsl.deploy.web_console import DeployConsole
-
             console = DeployConsole(policy.objective_names, preference, policy.command_ranges, command, port=args.web)
             inputs.append(console)
             print(f"{PROG}: console at {console.url}", flush=True)

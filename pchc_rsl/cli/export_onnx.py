@@ -21,7 +21,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--force", action="store_true", help="replace an existing --output file")
     parser.add_argument("-v", "--verbose", action="store_true", help="print torch's export messages and tracebacks")
     args = parser.parse_args(argv)
-    from pchc_rsl.training.checkpoint_export import export_checkpoint
+    from pchc_rsl.training.checkpoint_export import export_checkpoint  # torch: once the arguments are good
 
     output = args.output or os.path.splitext(args.checkpoint)[0] + ".onnx"
     if os.path.isdir(output):

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import copy
 import datetime
+import json
 import os
 import re
 import shlex
@@ -13,8 +14,17 @@ import sys
 import time
 
 from pchc_rsl.cli import arguments
-from pchc_rsl.configs import ACTOR_CLASSES, TASKS
+from pchc_rsl.configs import ACTOR_CLASSES, TASKS, select_actor, task_config
 from pchc_rsl.configs.base import LOGGERS
+from pchc_rsl.evaluation import TASK_EVALUATION
+from pchc_rsl.preference import validate_preference
+from pchc_rsl.runners import NonFiniteTraining, PhysicsOverflowStopped, TrainingInterrupted, load_checkpoint
+from pchc_rsl.training.build import make_runner, restore_config, saved_config
+from pchc_rsl.training.checks import check_task_config
+from pchc_rsl.training.overrides import apply_overrides, config_fields, format_config, set_value
+from pchc_rsl.training.run_folder import checkpoints_in, first_missing_folder, new_run_folder, remove_if_unused
+from pchc_rsl.training.threads import apply_threads
+from pchc_rsl.utils.distributed import DistributedSetupError, world
 
 PROG = "pchc-train"
 INIT_FROM_PARTS = {"actor": True, "critic": True, "amp": True, "optimizer": False, "iteration": False, "rnd": False}
@@ -71,20 +81,15 @@ def build_parser(task_help: str = "") -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> None:
-    from pchc_rsl.utils.distributed import world
-
     if world()[1] != 0:  # torchrun: rank 0 speaks for the run; the others print only errors
         sys.stdout = open(os.devnull, "w")  # noqa: SIM115 - for the life of the process
     argv = sys.argv[1:] if argv is None else list(argv)
     args = build_parser(_task_help(argv)).parse_args(argv)
     _take_overrides_from_motion_files(args)
-    from pchc_rsl.training.run_folder import new_run_folder
 
     try:
         cfg, config, notes = resolve(args)
         if args.show_config:
-            from pchc_rsl.training.overrides import format_config
-
             print(format_config(cfg))
             return
         log_dir = new_run_folder(args.log_dir, cfg.name)
@@ -102,13 +107,6 @@ def main(argv: list[str] | None = None) -> None:
 def resolve(args) -> tuple:
     """The TaskConfig to train (the task's, or the checkpoint's with --resume), flags and KEY=VALUE overrides
     applied and checked; the config dict checkpoints will carry; lines to tell the user."""
-    from pchc_rsl.configs import task_config
-    from pchc_rsl.preference import validate_preference
-    from pchc_rsl.runners import load_checkpoint
-    from pchc_rsl.training.build import restore_config, saved_config
-    from pchc_rsl.training.checks import check_task_config
-    from pchc_rsl.training.overrides import apply_overrides, config_fields, set_value
-
     notes = []
     if args.resume and args.init_from:
         raise ValueError("give --resume (continue a run with its config) or --init-from (a new run starting from its "
@@ -117,7 +115,6 @@ def resolve(args) -> tuple:
         raise ValueError("--fresh-discriminator applies to --init-from (a run continued with --resume keeps its "
                          "discriminator).")
     if args.resume and os.path.isdir(args.resume):  # a run folder: its latest checkpoint, as legged_gym does
-        from pchc_rsl.training.run_folder import checkpoints_in
 
         found = checkpoints_in(args.resume)
         if not found:
@@ -145,8 +142,6 @@ def resolve(args) -> tuple:
             raise ValueError(f"task '{cfg.name}' has one physics; --physics applies to the G1 tasks.")
         flags.append(f"env.physics={args.physics}")
     if args.actor is not None:
-        from pchc_rsl.configs import select_actor
-
         select_actor(cfg.runner.actor, args.actor)
         if args.actor == "no-preference":
             cfg.runner.obs_groups["actor"] = [g for g in cfg.runner.obs_groups["actor"] if g != "preference"]
@@ -212,12 +207,6 @@ def _most_specific(changed: list[str], before: dict, after: dict) -> list[str]:
 
 def train(cfg, config: dict, log_dir: str, args) -> None:
     """Build, train, and close with a summary; a failed run that saved no checkpoint leaves no folder behind."""
-    from pchc_rsl.runners import NonFiniteTraining, PhysicsOverflowStopped, TrainingInterrupted
-    from pchc_rsl.training.build import make_runner
-    from pchc_rsl.training.run_folder import checkpoints_in, first_missing_folder, remove_if_unused
-    from pchc_rsl.training.threads import apply_threads
-    from pchc_rsl.utils.distributed import DistributedSetupError, world
-
     created = first_missing_folder(log_dir)
     owns_folder = world()[1] == 0  # torchrun: the run folder is rank 0's; a failing rank > 0 leaves it alone
 
@@ -280,8 +269,6 @@ def _continue_env_progress(runner, path: str) -> None:
     """--init-from: the env's training progress (the fall-recovery curriculum's assist level and action scale) that
     the networks were trained at, not its random streams: a fine-tuned getting-up policy must not restart at full
     assist and eta 1."""
-    from pchc_rsl.runners import load_checkpoint
-
     state = (load_checkpoint(path).get("training_state") or {}).get("env") or {}
     progress = {k: v for k, v in state.items()  # numbers only: per-env state (the toy's positions) is not progress
                 if k not in ("generator", "rng") and isinstance(v, (int, float)) and not isinstance(v, bool)}
@@ -308,9 +295,6 @@ def _stop_on_signals() -> None:
 def _summary(cfg, log_dir: str, checkpoint: str, start: float, last: int | None = None) -> None:
     """Where everything is and what to run next, with the real paths; ``last``: the iteration the run meant to end
     at (an interrupted run continues with what is left)."""
-    from pchc_rsl.evaluation import TASK_EVALUATION
-    from pchc_rsl.training.run_folder import checkpoints_in
-
     q = shlex.quote
     names = ", ".join(os.path.basename(p) for p in checkpoints_in(log_dir))
     elapsed = datetime.timedelta(seconds=round(time.time() - start))
@@ -338,8 +322,6 @@ def _task_help(argv: list[str]) -> str:
     known, _ = pre.parse_known_args(argv)
     if known.task not in TASKS:
         return "Give --task TASK with --help to list that task's config."
-    from pchc_rsl.configs import task_config
-    from pchc_rsl.training.overrides import format_config
 
     return f"config of task {known.task} (set any with KEY=VALUE):\n" + format_config(task_config(known.task))
 
@@ -354,8 +336,6 @@ def _take_overrides_from_motion_files(args) -> None:
 
 
 def _show(value) -> str:
-    import json
-
     return json.dumps(value, default=str)
 
 

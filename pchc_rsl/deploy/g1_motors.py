@@ -41,15 +41,15 @@ MOTOR_STAND_KD = np.array(_STAND_LEG_KD * 2 + [3.0] * 3 + _STAND_ARM_KD * 2, dty
 (deploy/deploy_real/configs/g1.yaml, ``arm_waist_kps``/``arm_waist_kds``), which its deploy_real.py uses for the same
 two phases. Legs (hip pitch, roll, yaw, knee, ankle pitch, roll): stiffer than that file's ``kps``/``kds`` (hip 100,
 knee 150, ankle 40; kd 2, 4, 2), because a robot held only by PD is an inverted pendulum on its ankles: it stands if
-they are stiffer than gravity's tipping stiffness m g h (35 kg x 9.81 x 0.6 m = 206 Nm/rad, about 100 per ankle),
-and the hips and knees in series with them must not give way. With unitree_rl_gym's leg gains the G1 tips over
-within 1.5 s of the gantry's release. These were chosen in unitree_mujoco's G1 model with its torque semantics (PD
-computed from sensor readings one 2 ms physics step old; tools/hold_gains.py): the robot stands, a 25 N push of 0.2 s
-at the torso from the front or the back does not tip it, and the free feet do not chatter while it hangs on the
-gantry (an ankle pitch kd of 8 makes them chatter there). Less hip and knee damping (kd 6 and 8) tips the robot at
-25 N, and in unitree_mujoco itself once it had drifted forward on the band. In pchc-deploy's simulator these stand
-at 500 Hz physics in both PD modes, and with PD at every step down to 250 Hz (at 200 Hz the hip and knee kd tip it).
-docs/deploy.md has the figures."""
+they are stiffer than gravity's tipping stiffness m g h (35 kg x 9.81 x 0.6 m = 206 Nm/rad, about 100 per ankle), and
+the hips and knees in series with them must not give way. With unitree_rl_gym's leg gains the G1 tips over within 1.5 s
+of the gantry's release. These were chosen in unitree_mujoco's G1 model with its torque semantics (PD computed from
+sensor readings one 2 ms physics step old; tools/diagnostics/hold_gains.py): the robot stands, a 25 N push of 0.2 s at
+the torso from the front or the back does not tip it, and the free feet do not chatter while it hangs on the gantry (an
+ankle pitch kd of 8 makes them chatter there). Less hip and knee damping (kd 6 and 8) tips the robot at 25 N, and in
+unitree_mujoco itself once it had drifted forward on the band. In pchc-deploy's simulator these stand at 500 Hz physics
+in both PD modes, and with PD at every step down to 250 Hz (at 200 Hz the hip and knee kd tip it). docs/deploy.md has
+the figures."""
 
 
 class JointMap:

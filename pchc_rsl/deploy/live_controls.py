@@ -174,7 +174,7 @@ class KeyReader:
         self._saved = None
         if not sys.stdin.isatty():
             return
-        import termios
+        import termios  # POSIX only, read where a terminal is: the module's parsers load on any OS
         import tty
 
         self._saved = termios.tcgetattr(sys.stdin)

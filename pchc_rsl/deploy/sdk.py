@@ -4,6 +4,7 @@ and the two ends of rt/lowcmd and rt/lowstate (the deploy's and the sim bridge's
 
 from __future__ import annotations
 
+import socket
 import threading
 import time
 
@@ -41,8 +42,6 @@ def start_dds(domain: int, interface: str | None) -> None:
     """Join DDS domain ``domain`` on ``interface`` (None: CycloneDDS picks one); once per process."""
     channel, *_ = sdk()
     if interface is not None:
-        import socket
-
         names = [name for _, name in socket.if_nameindex()]
         if interface not in names:
             raise ValueError(f"--network {interface} names no network interface here; this machine has "

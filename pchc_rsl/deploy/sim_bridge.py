@@ -13,7 +13,7 @@ from pchc_rsl.deploy.fixed_rate import FixedRateLoop
 from pchc_rsl.deploy.real_time import REAL_TIME_BOUND
 from pchc_rsl.deploy.robot_io import Remote
 from pchc_rsl.deploy.simulator import G1Simulator
-from pchc_rsl.viewers.native import passive_viewer
+from pchc_rsl.viewers.passive import passive_viewer
 
 G1_MODE_MACHINE = 5
 """What a 29-DoF G1 reports as mode_machine (a deploy must echo it in LowCmd or the robot ignores the command)."""

@@ -10,7 +10,8 @@ import queue
 import numpy as np
 
 from pchc_rsl.deploy.live_controls import COMMAND_COMPONENTS, COMMAND_WORDS
-from pchc_rsl.viewers.web import DEFAULT_HOST, add_preference_controls, check_port, preference_markdown, require_viser
+from pchc_rsl.viewers.web_page import (DEFAULT_HOST, add_preference_controls, check_port, preference_markdown,
+                                       require_viser)
 
 
 class DeployConsole:

@@ -8,6 +8,7 @@ These produce the same bytes (tests compare them with the SDK's CRC and cycloned
 
 from __future__ import annotations
 
+import ctypes
 import functools
 
 import numpy as np
@@ -55,8 +56,6 @@ def _crc_table() -> list[int]:
 def _native_crc():
     """unitree_sdk2py's compiled crc32_core, or None (then the table-driven Python version below)."""
     try:
-        import ctypes
-
         from unitree_sdk2py.utils.crc import CRC
 
         core = CRC().crc_lib.crc32_core

@@ -3,7 +3,8 @@ metrics, Table I / II with the gait, dynamic preference switching, and deploymen
 
 Works on any env that follows the contract (set_preference, extras["episode_metrics"] at episode ends); the task
 specifics (which metrics form the front, the table columns, the evaluation preset) are in ``presets``. The CLIs
-(pchc-eval, pchc-play) and the tools only parse their arguments and call these.
+(pchc-eval, pchc-play) and the tools only parse their arguments and call these. Imported by their paths: training
+curves (``training_plots``, for pchc-runs curves) and a mixture actor's expert usage (``expert_usage``).
 """
 
 from pchc_rsl.evaluation.checkpoint import (TOY_STEPS_PER_SECOND, check_objectives, evaluate_checkpoint,

@@ -4,13 +4,15 @@ push preset run; and the env and policy of a checkpoint as pchc-play, the viewer
 from __future__ import annotations
 
 import dataclasses
-
 import os
 
 from pchc_rsl.evaluation.presets import TASK_EVALUATION, evaluation_preset
 from pchc_rsl.evaluation.report import front_points, front_summary
 from pchc_rsl.evaluation.runs import run_preference_batch, run_return_episodes, switching_run
 from pchc_rsl.evaluation.statistics import aggregate
+from pchc_rsl.runners import load_checkpoint
+from pchc_rsl.training.build import for_running, make_runner, placed, restore_config, saved_config
+from pchc_rsl.training.overrides import apply_overrides
 from pchc_rsl.utils.files import recorded_path
 
 TOY_STEPS_PER_SECOND = 10
@@ -21,9 +23,6 @@ def evaluation_config(config: dict, preset: str | None, num_envs: int, seed: int
                       device: str = "cpu"):
     """A checkpoint's saved config as pchc-eval runs it: the task's evaluation preset with this push preset (None:
     the config as trained), then the ``KEY=VALUE`` overrides (a deployment shift, another push), lambda not held."""
-    from pchc_rsl.training.build import placed, restore_config
-    from pchc_rsl.training.overrides import apply_overrides
-
     cfg = restore_config(config)
     if preset is not None:
         cfg = evaluation_preset(cfg, preset, TASK_EVALUATION[config["task"]])
@@ -35,8 +34,6 @@ def evaluation_config(config: dict, preset: str | None, num_envs: int, seed: int
 
 def loaded_policy(path: str, cfg, verbose: bool = False):
     """(runner, deterministic policy) for ``cfg`` with the checkpoint at ``path`` loaded."""
-    from pchc_rsl.training.build import for_running, make_runner
-
     runner = make_runner(for_running(cfg), verbose=verbose)
     runner.load(path)
     return runner, runner.get_inference_policy()
@@ -44,9 +41,6 @@ def loaded_policy(path: str, cfg, verbose: bool = False):
 
 def task_config_of(path: str, task_prefix: str, tool: str, what: str) -> dict:
     """A checkpoint's saved config; exits with a one-line error naming ``tool`` if its task is not ``what``."""
-    from pchc_rsl.runners import load_checkpoint
-    from pchc_rsl.training.build import saved_config
-
     config = saved_config(path, load_checkpoint(path))
     if not config["task"].startswith(task_prefix):
         raise SystemExit(f"{tool}: {path} is for task '{config['task']}', not {what}.")
@@ -137,10 +131,6 @@ def load_policy(path: str, num_envs: int, seed: int, episode_length_s: float | N
     inference policy.
 
     Returns (task, env, policy); ValueError (one line) for a task without an evaluation preset or a bad override."""
-    from pchc_rsl.runners import load_checkpoint
-    from pchc_rsl.training.build import placed, restore_config
-    from pchc_rsl.training.overrides import apply_overrides
-
     config = load_checkpoint(path).get("config") or {}
     task = config.get("task")
     if task != "toy" and task not in TASK_EVALUATION:

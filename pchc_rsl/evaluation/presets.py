@@ -147,10 +147,10 @@ TOY_EVALUATION = TaskEvaluation(
 )
 
 
-PUSH_CALIBRATION = """The presets come from tools/push_sweep.py --calibrate on the first released policies at (0.5, 0.5)
-(docs/evaluation.md, "Push presets"): mild is the speed whose deviation after a push comes closest to the paper's at
-(0.5, 0.5) while 90% of episodes stay up, strong the speed at which the share that stays up comes closest to the
-paper's 75.7%. Fall recovery measures the COM until the next push (3 s), long enough for the robot to settle; the
+PUSH_CALIBRATION = """The presets come from tools/diagnostics/push_sweep.py --calibrate on the first released policies
+at (0.5, 0.5) (docs/evaluation.md, "Push presets"): mild is the speed whose deviation after a push comes closest to the
+paper's at (0.5, 0.5) while 90% of episodes stay up, strong the speed at which the share that stays up comes closest to
+the paper's 75.7%. Fall recovery measures the COM until the next push (3 s), long enough for the robot to settle; the
 1 s window of the v1 presets cut the displacement short. The v1 presets (0.5 and 1.2 m/s, 1 s) remain available.
 The force presets push as a robot is pushed, by a force over a set time on a body (docs/evaluation.md, "Pushes as
 forces"): 300-600 N for 0.08 s on the torso or pelvis is the level of an external benchmark of G1 walking policies

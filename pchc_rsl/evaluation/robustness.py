@@ -11,7 +11,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from pchc_rsl.evaluation.presets import FALL_RECOVERY_EVALUATION, WALK_EVALUATION
+from pchc_rsl.evaluation.checkpoint import evaluate_checkpoint
+from pchc_rsl.evaluation.plots import figure
+from pchc_rsl.evaluation.presets import FALL_RECOVERY_EVALUATION, TASK_EVALUATION, WALK_EVALUATION
 from pchc_rsl.evaluation.report import _finite_or_null, format_metric
 from pchc_rsl.utils.files import recorded_path
 
@@ -114,9 +116,6 @@ def run_robustness(path: str, config: dict, preferences, conditions: list[Condit
     condition's overrides after the user's. Returns {"task", "conditions", "rows"}; ``on_condition(report)`` is
     called after each condition with the report of the conditions finished so far (marked ``"partial": true``
     until the last), so that an interrupted run leaves them written."""
-    from pchc_rsl.evaluation.checkpoint import evaluate_checkpoint
-    from pchc_rsl.evaluation.presets import TASK_EVALUATION
-
     evaluation = TASK_EVALUATION[config["task"]]
     presets = evaluation.push_presets[:1] or None
     rows, done = [], []
@@ -194,9 +193,6 @@ def cell_text(key: str, value: float) -> str:
 def plot_robustness(report: dict, path: str) -> str:
     """Heatmap(s) preference x condition of the headline figures, under a title naming the policy, each with its
     own colour scale from 0 (rates 0-100%)."""
-    from pchc_rsl.evaluation.plots import _pyplot
-
-    plt = _pyplot()
     figures = headline(report["task"], report["rows"])
     conditions = report["conditions"]
     preferences = []
@@ -204,8 +200,7 @@ def plot_robustness(report: dict, path: str) -> str:
         if row["preference"] not in preferences:
             preferences.append(row["preference"])
     cell = {(r["condition"], tuple(r["preference"])): r["metrics"] for r in report["rows"]}
-    fig, axes = plt.subplots(1, len(figures), figsize=(3.2 + 2.2 * len(figures), 0.35 * len(conditions) + 1.6),
-                             squeeze=False)
+    fig, axes = figure((3.2 + 2.2 * len(figures), 0.35 * len(conditions) + 1.6), 1, len(figures), squeeze=False)
     for ax, (key, title) in zip(axes[0], figures):
         values = np.array([[cell.get((c, tuple(p)), {}).get(key) for p in preferences] for c in conditions],
                           dtype=float)
@@ -230,7 +225,6 @@ def plot_robustness(report: dict, path: str) -> str:
                  fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
-    plt.close(fig)
     return path
 
 

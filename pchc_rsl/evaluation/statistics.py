@@ -33,7 +33,7 @@ def aggregate(episodes: list[dict[str, float]]) -> dict:
             interval = [100.0 * x for x in wilson_interval(mean, n)]
             key, mean = RATE_METRICS[key], 100.0 * mean
         elif n >= 2:
-            from scipy import stats
+            from scipy import stats  # half a second, which every command importing the evaluation would pay at start
 
             half = float(stats.t.ppf(0.975, n - 1) * values.std(ddof=1) / math.sqrt(n))
             interval = [mean - half, mean + half]

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+import json
 import logging
 import warnings
 
@@ -62,9 +63,7 @@ def export_onnx(
 
 def _write_metadata(path: str, metadata: dict) -> None:
     """Store ``metadata`` (JSON) in the ONNX file's metadata_props, where onnxruntime exposes it to a deploy."""
-    import json
-
-    import onnx
+    import onnx  # half a second, which every command importing the runner would pay at start
 
     model = onnx.load(path)
     del model.metadata_props[:]

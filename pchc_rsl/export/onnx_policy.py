@@ -3,7 +3,10 @@ and what the exporter checks its file with."""
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
+import onnxruntime as ort
 
 from pchc_rsl.export.metadata import METADATA_KEY
 from pchc_rsl.export.onnx_session import open_onnx_session
@@ -15,8 +18,6 @@ class OnnxPolicy:
     (shapes, a non-empty batch, finite observations, each preference row on the simplex)."""
 
     def __init__(self, path: str, num_threads: int | None = None) -> None:
-        import onnxruntime as ort
-
         options = ort.SessionOptions()
         if num_threads is not None:
             options.intra_op_num_threads = num_threads
@@ -37,7 +38,6 @@ class OnnxPolicy:
         if self._metadata is None:
             raise ValueError(f"{self.path} was exported before policies carried their deploy metadata; re-export "
                              f"it: pchc-export-onnx CHECKPOINT.pt -o {self.path} --force")
-        import json
 
         return json.loads(self._metadata)
 

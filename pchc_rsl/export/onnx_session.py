@@ -4,12 +4,12 @@ file's metadata within a second."""
 
 from __future__ import annotations
 
+import onnxruntime as ort
+
 
 def open_onnx_session(path: str, options=None):
     """An onnxruntime InferenceSession on the CPU; ValueError in one line for a file that is not a readable ONNX
     model."""
-    import onnxruntime as ort
-
     with open(path, "rb") as f:
         magic = f.read(2)
     if magic == b"PK":  # a zip archive: what torch.save writes

@@ -153,8 +153,8 @@ class BatchedExperts(nn.Module):
     """E independent MLPs with their weights stacked per layer: [N, in] -> [E, N, out].
 
     Evaluated expert by expert (one addmm per layer and expert): on CPUs, E matrix products of the whole batch train
-    faster than one batched product (tools/bench_experts.py: 0.70-0.74 of its time for a G1 mini-batch), same result.
-    Each expert is initialised like nn.Linear (uniform in +-1/sqrt(fan_in)).
+    faster than one batched product (tools/benchmarks/bench_experts.py: 0.70-0.74 of its time for a G1 mini-batch), same
+    result. Each expert is initialised like nn.Linear (uniform in +-1/sqrt(fan_in)).
     """
 
     def __init__(self, num_experts: int, input_dim: int, output_dim: int, hidden_dims, activation: str) -> None:

@@ -41,7 +41,8 @@ class MultiCriticRolloutStorage(RolloutStorage):
 
     def mini_batch_generator(self, num_mini_batches: int, num_epochs: int = 8):
         """rsl-rl's generator (the same permutation, the same batches in the same order) gathering the rows with
-        ``index_select``, which is faster than advanced indexing on a CPU (tools/bench_update.py times the two)."""
+        ``index_select``, which is faster than advanced indexing on a CPU (tools/benchmarks/bench_update.py times the
+        two)."""
         if self.training_type != "rl":
             raise ValueError("This function is only available for reinforcement learning training.")
         batch_size = self.num_envs * self.num_transitions_per_env

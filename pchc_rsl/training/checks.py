@@ -8,7 +8,10 @@ from __future__ import annotations
 
 import math
 
+import torch
+
 from pchc_rsl.configs import TaskConfig
+from pchc_rsl.envs.physics.backend import BACKENDS
 
 AT_LEAST_ONE = ("num_envs", "runner.max_iterations", "runner.save_interval", "runner.num_steps_per_env",
                 "runner.algorithm.num_learning_epochs", "runner.algorithm.num_mini_batches")
@@ -49,8 +52,6 @@ def check_physics(backend: str | None) -> None:
     """ValueError unless the G1 physics backend exists and is installed (None: the task has one physics)."""
     if backend is None:
         return
-    from pchc_rsl.envs.physics.backend import BACKENDS
-
     if backend not in BACKENDS:
         raise ValueError(f"env.physics must be one of {', '.join(BACKENDS)}, got {backend!r}.")
     if backend == "warp":
@@ -63,8 +64,6 @@ def check_physics(backend: str | None) -> None:
 
 def check_device(device: str) -> None:
     """ValueError unless this torch build can use ``device`` (e.g. 'cuda:0' on a CPU-only torch)."""
-    import torch
-
     try:
         parsed = torch.device(device)
     except (RuntimeError, TypeError):

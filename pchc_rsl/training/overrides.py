@@ -20,6 +20,8 @@ import types
 import typing
 from typing import Any, Union
 
+from pchc_rsl.configs.base import constructor_arguments
+
 READ_ONLY = {"name": "the task is chosen with --task"}
 
 
@@ -80,8 +82,6 @@ def _kwargs_taking(fields: dict, key: str) -> dict | None:
     class_name = getattr(model, "class_name", None)
     if not isinstance(class_name, str) or not isinstance(kwargs, dict):
         return None
-    from pchc_rsl.configs.base import constructor_arguments
-
     return kwargs if name in constructor_arguments(class_name) else None
 
 

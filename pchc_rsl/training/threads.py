@@ -1,10 +1,10 @@
 """How many CPU threads training uses: MuJoCo's physics threads while collecting, torch's while learning.
 
-By default the physics gets the cores this process may use (shared out among the training processes torchrun
-started on this machine) and torch one intra-op thread. The networks here are small (a few hundred units), so a
-second torch thread buys little on a quiet machine (toy: 8.2 against 9.2 s), while torch's OpenMP threads spin
-while they wait, and two torch processes with a thread per core take turns spinning on each other's cores: beside
-one pchc-eval the toy took 15x its quiet time with a thread per core, and 0.95x with one (tools/bench_threads.py,
+By default the physics gets the cores this process may use (shared out among the training processes torchrun started on
+this machine) and torch one intra-op thread. The networks here are small (a few hundred units), so a second torch thread
+buys little on a quiet machine (toy: 8.2 against 9.2 s), while torch's OpenMP threads spin while they wait, and two
+torch processes with a thread per core take turns spinning on each other's cores: beside one pchc-eval the toy took 15x
+its quiet time with a thread per core, and 0.95x with one (tools/benchmarks/bench_threads.py,
 docs/results/training_speed.md). ``--threads N`` sets both to N.
 """
 

@@ -7,6 +7,7 @@ other file (0644 under the usual umask 022), and its name never ends up inside t
 
 from __future__ import annotations
 
+import json
 import os
 import uuid
 from collections.abc import Callable
@@ -24,6 +25,16 @@ def atomic_write(path: str, write: Callable[[str], object]) -> str:
         if os.path.exists(tmp_path):
             os.remove(tmp_path)
     return path
+
+
+def write_json(path: str, data) -> str:
+    """``data`` as indented JSON at ``path``, written atomically: an interrupted write never leaves half a file."""
+
+    def write(tmp_path: str) -> None:
+        with open(tmp_path, "w") as f:
+            json.dump(data, f, indent=2)
+
+    return atomic_write(path, write)
 
 
 def recorded_path(path: str) -> str:

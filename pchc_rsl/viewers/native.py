@@ -1,37 +1,20 @@
-"""MuJoCo's passive viewer on a running policy, with keys that move lambda, push and reset (pchc-play), closed so
-that the process can exit cleanly (pchc-play, the sim-to-sim bridge).
-
-``Handle.close()`` only asks the viewer's daemon thread to stop; a process that exits before that thread's render
-loop has finished lets GLFW terminate under a frame still being swapped (GLXBadDrawable and a segfault at exit under
-Xvfb, seen in CI). Closing here waits for the thread."""
+"""MuJoCo's passive viewer on a running policy, with keys that move lambda, push and reset (pchc-play)."""
 
 from __future__ import annotations
 
-import contextlib
-import threading
 import time
 from collections import deque
 
+import mujoco
+import torch
+
+from pchc_rsl.envs.g1.render import add_push_arrow, visual_model
+from pchc_rsl.viewers.overlay import live_metrics, preference_row
+from pchc_rsl.viewers.passive import passive_viewer
 from pchc_rsl.viewers.steering import set_command, trained_ranges
 
 LAMBDA_STEP = 0.1
 """How far one key press moves lambda along the simplex."""
-
-
-@contextlib.contextmanager
-def passive_viewer(model, data, **kwargs):
-    """``mujoco.viewer.launch_passive(model, data, **kwargs)``'s handle; on leaving, closed and its thread joined."""
-    import mujoco.viewer
-
-    before = set(threading.enumerate())
-    handle = mujoco.viewer.launch_passive(model, data, **kwargs)
-    viewer_threads = [thread for thread in threading.enumerate() if thread not in before]
-    try:
-        yield handle
-    finally:
-        handle.close()
-        for thread in viewer_threads:
-            thread.join(timeout=10.0)
 
 
 RIGHT, LEFT, SPACE, BACKSPACE = 262, 263, 32, 259
@@ -66,8 +49,6 @@ class LiveControls:
 
     def apply(self) -> bool:
         """Apply the queued keys; True if any did (the policy then needs fresh observations)."""
-        import torch
-
         env, changed = self.env, bool(self.pending)
         while self.pending:
             action = self.pending.popleft()
@@ -87,12 +68,6 @@ class LiveControls:
 
 def run_viewer(env, policy, preference, seconds: float | None) -> int:
     """MuJoCo's passive viewer on env 0 in real time until closed (or ``seconds`` of simulation); returns steps."""
-    import mujoco
-    import torch
-
-    from pchc_rsl.envs.g1.render import add_push_arrow, visual_model
-    from pchc_rsl.viewers.overlay import live_metrics, preference_row
-
     model = visual_model(env)
     data = mujoco.MjData(model)
     controls = LiveControls(env)

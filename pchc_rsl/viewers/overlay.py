@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import math
 
+import torch
+
 
 def _number(value: float, fmt: str) -> str:
     return "-" if value != value else format(value, fmt)
@@ -12,8 +14,6 @@ def _number(value: float, fmt: str) -> str:
 
 def live_metrics(env, i: int, falls: int) -> list[tuple[str, str]]:
     """(name, value) pairs shown next to a robot: stride or energy, the last push's deviation, falls or standing."""
-    import torch
-
     if not hasattr(env, "episode_metrics"):  # the toy: how far from each goal
         distance = (env.pos[i] - env.goals).norm(dim=-1)
         return [(f"distance to {n}", f"{d:.2f}") for n, d in zip("AB", distance.tolist())]

@@ -5,14 +5,14 @@ from __future__ import annotations
 
 import argparse
 import os
-import sys
 
+import torch
+
+from pchc_rsl.envs.g1.render import G1Renderer
+from pchc_rsl.envs.toy_render import ToyPlot
 from pchc_rsl.evaluation.checkpoint import TOY_STEPS_PER_SECOND, check_objectives, load_policy
-
-
-def has_display() -> bool:
-    """Whether a window can open here (macOS, Windows, or an X11 / Wayland display)."""
-    return sys.platform in ("darwin", "win32") or bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+from pchc_rsl.viewers.overlay import tile_label
+from pchc_rsl.viewers.video import VideoWriter, label, tile
 
 
 def record_checkpoint_video(checkpoint: str, preferences, path: str, args, prog: str = "pchc-play") -> str:
@@ -25,12 +25,8 @@ def record_checkpoint_video(checkpoint: str, preferences, path: str, args, prog:
                                     args.overrides)
     check_objectives(env, preferences, checkpoint)
     if task == "toy":
-        from pchc_rsl.envs.toy_render import ToyPlot
-
         renderer, dt = ToyPlot(env, args.width, args.height), 1.0 / TOY_STEPS_PER_SECOND
     else:
-        from pchc_rsl.envs.g1.render import G1Renderer
-
         renderer, dt = G1Renderer(env, args.width, args.height), env.dt
     seconds = args.seconds if args.seconds is not None else env.max_episode_length * dt
     print(f"{prog}: simulating and rendering {seconds:g} s at {len(preferences)} preference(s)...", flush=True)
@@ -45,11 +41,6 @@ def record_video(env, policy, renderer, preferences, path: str, seconds: float, 
     """Step env i at preferences[i] for ``seconds``, a frame every round(1 / (fps dt)) steps; returns the frame count.
 
     The frame rate written is the one achieved, 1 / (frame interval), so the video plays in real time."""
-    import torch
-
-    from pchc_rsl.viewers.overlay import tile_label
-    from pchc_rsl.viewers.video import VideoWriter, label, tile
-
     steps = max(1, round(seconds / dt))
     every = max(1, round(1.0 / (fps * dt)))
     falls = [0] * env.num_envs
@@ -76,10 +67,8 @@ def record_video(env, policy, renderer, preferences, path: str, seconds: float, 
 def write_eval_videos(checkpoints: list[str], preferences, args) -> list[str]:
     """pchc-eval --video: the tiled video of each checkpoint at the evaluated preferences, next to the tables.
 
-    Called before the evaluation, so that a headless run can still choose MUJOCO_GL=egl before mujoco loads.
-    RenderingUnavailable (from pchc_rsl.envs.g1.render) without an OpenGL context."""
-    if not has_display():
-        os.environ.setdefault("MUJOCO_GL", "egl")
+    RenderingUnavailable (from pchc_rsl.envs.g1.render) without an OpenGL context (pchc-eval chooses EGL without a
+    display: pchc_rsl.utils.display)."""
     video_args = argparse.Namespace(seed=args.seed, seconds=args.episode_length, push_every=None, width=320,
                                     overrides=getattr(args, "overrides", []),
                                     height=240, fps=25.0)

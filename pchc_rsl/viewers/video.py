@@ -9,6 +9,7 @@ from __future__ import annotations
 import os
 
 import numpy as np
+from PIL import Image, ImageDraw, ImageFont
 
 VIDEO_FORMATS = (".mp4", ".gif")
 INSTALL_HINT = "pip install -e \".[render]\" (imageio and imageio-ffmpeg)"
@@ -38,8 +39,6 @@ def tile(frames: list[np.ndarray]) -> np.ndarray:
 
 def label(frame: np.ndarray, lines: list[str]) -> np.ndarray:
     """The frame with ``lines`` written in its top-left corner on a dark box (readable on any background)."""
-    from PIL import Image, ImageDraw, ImageFont
-
     image = Image.fromarray(frame)
     draw = ImageDraw.Draw(image, "RGBA")
     size = max(8, frame.shape[0] // 22)

@@ -12,17 +12,22 @@ from __future__ import annotations
 import collections
 import math
 import random
-import socket
 import threading
 import time
 
+import mujoco
 import numpy as np
+import torch
 
+from pchc_rsl.envs.g1.render import visual_model
+from pchc_rsl.envs.g1.robot_state import yaw_of
+from pchc_rsl.envs.toy_render import ToyPlot
 from pchc_rsl.export.metadata import COMMAND_COMPONENTS
+from pchc_rsl.viewers.overlay import live_metrics
 from pchc_rsl.viewers.steering import COMMAND_LABELS, set_command, trained_ranges
+from pchc_rsl.viewers.web_page import (DEFAULT_HOST, DEFAULT_PORT, add_preference_controls, check_port,
+                                       preference_markdown, require_viser)
 
-DEFAULT_HOST = "127.0.0.1"
-DEFAULT_PORT = 8080
 HISTORY_S = 5.0
 """The reward panel shows this many seconds."""
 PANEL_EVERY_S = 0.25
@@ -32,62 +37,6 @@ SCENE_EVERY_S = 1 / 30
 on a machine without a GPU (software WebGL)."""
 PUSH_DIRECTIONS = {"random": None, "forward": 0.0, "left": math.pi / 2, "backward": math.pi, "right": -math.pi / 2}
 """Push directions relative to the robot's heading (rad); None: a random world direction."""
-
-
-class WebViewerUnavailable(RuntimeError):
-    """viser (or mjviser) is missing, or the port cannot be used; the message says what to do."""
-
-
-def require_viser():
-    try:
-        import viser
-        from mjviser import ViserMujocoScene
-    except ImportError as error:
-        raise WebViewerUnavailable(f"the web viewer needs viser and mjviser ({error}); install the extra: "
-                                   "pip install -e \".[web]\"") from None
-    return viser, ViserMujocoScene
-
-
-def check_port(host: str, port: int) -> None:
-    """Fail in one line if ``port`` is taken (viser would silently move to the next one), suggesting a free one."""
-    with socket.socket() as probe:
-        try:
-            probe.bind((host, port))
-            return
-        except OSError:
-            pass
-    with socket.socket() as spare:
-        spare.bind((host, 0))
-        free = spare.getsockname()[1]
-    raise WebViewerUnavailable(f"port {port} on {host} is in use (another viewer?); pass --port {free}, which is "
-                               "free now")
-
-
-def preference_from_sliders(values) -> list[float]:
-    """Slider positions -> lambda on the simplex. One slider (two objectives) is lambda_2: t -> (1 - t, t). One
-    slider per objective: their values renormalised to sum to 1 (all at 0: the middle of the simplex)."""
-    values = [min(1.0, max(0.0, float(v))) for v in values]
-    if len(values) == 1:
-        return [1.0 - values[0], values[0]]
-    total = sum(values)
-    return [v / total for v in values] if total > 0 else [1.0 / len(values)] * len(values)
-
-
-def add_preference_controls(gui, names: list[str], initial, on_change):
-    """lambda's slider (one for two objectives, one per objective otherwise, renormalised) and a line that shows it;
-    ``on_change(preference)`` runs on viser's thread. Returns (the sliders, the markdown handle of that line)."""
-    if len(names) == 2:
-        sliders = [gui.add_slider(f"{names[0]} <-> {names[1]}", 0.0, 1.0, 0.05, float(initial[1]),
-                                  hint=f"lambda = (1 - t, t): left favours {names[0]}, right {names[1]}")]
-    else:
-        sliders = [gui.add_slider(name, 0.0, 1.0, 0.05, float(value)) for name, value in zip(names, initial)]
-    for s in sliders:
-        s.on_update(lambda _: on_change(preference_from_sliders([x.value for x in sliders])))
-    return sliders, gui.add_markdown(preference_markdown(names, initial))
-
-
-def preference_markdown(names: list[str], preference) -> str:
-    return "lambda = (" + ", ".join(f"{n} **{float(v):.2f}**" for n, v in zip(names, preference)) + ")"
 
 
 def add_command_controls(gui, cfg, initial, on_change) -> dict:
@@ -109,8 +58,6 @@ class WebViewer:
                  speed: float = 1.0, pushes: dict | None = None) -> None:
         """``pushes``: the task's push presets by name (pchc_rsl.evaluation.presets.PushPreset), offered as the
         push's strength: a velocity kick, or a force drawn from the preset's range on one of its bodies."""
-        import torch
-
         viser, ViserMujocoScene = require_viser()
         check_port(host, port)
         self.env, self.policy = env, policy
@@ -128,10 +75,6 @@ class WebViewer:
         env.reset()
         self.obs = env.get_observations()
         if self.is_g1:
-            import mujoco
-
-            from pchc_rsl.envs.g1.render import visual_model
-
             self.plot = None
             self._build_gui()  # the controls go out before the meshes, which take long to reach a browser
             self.model = visual_model(env)
@@ -140,8 +83,6 @@ class WebViewer:
             self.server.initial_camera.position = (2.2, -2.2, 0.5)
             self.server.initial_camera.look_at = (0.0, 0.0, -0.25)
         else:
-            from pchc_rsl.envs.toy_render import ToyPlot
-
             self.scene, self.plot = None, ToyPlot(env, 480, 360)
             self.plot.record()
             self._build_gui()
@@ -190,8 +131,6 @@ class WebViewer:
 
     def apply_pending(self) -> bool:
         """Apply the queued actions to the env; True if the policy needs fresh observations."""
-        import torch
-
         changed = False
         with self.lock:
             actions = list(self.pending)
@@ -220,8 +159,6 @@ class WebViewer:
         return changed
 
     def _push(self, strength: str, direction: str) -> None:
-        from pchc_rsl.envs.g1.robot_state import yaw_of
-
         preset = self.pushes.get(strength)
         offset = PUSH_DIRECTIONS[direction]
         angle = None if offset is None else float(yaw_of(self.env.robot.base_quat[:1])[0]) + offset
@@ -235,8 +172,6 @@ class WebViewer:
 
     # ------------------------------------------------------------------ simulation
     def step(self) -> None:
-        import torch
-
         with torch.inference_mode():
             self.obs, _, _, extras = self.env.step(self.policy(self.obs))
         self.steps += 1
@@ -254,15 +189,11 @@ class WebViewer:
     def _show(self) -> None:
         """Pose the scene from the physics state (or redraw the toy's plot)."""
         if self.scene is not None:
-            import mujoco
-
             self.data.qpos[:] = self.env.physics.qpos[0].cpu().numpy()
             mujoco.mj_forward(self.model, self.data)
             self.scene.update_from_mjdata(self.data)
 
     def _panels(self) -> None:
-        from pchc_rsl.viewers.overlay import live_metrics
-
         self.preference_text.content = preference_markdown(self.env.cfg.objective_names,
                                                            self.env.preference[0].tolist())
         if self.history:
@@ -270,8 +201,6 @@ class WebViewer:
             self.reward_plot.data = tuple(columns)
         rows = live_metrics(self.env, 0, self.falls)
         if self.is_g1:
-            import torch
-
             metrics = {k: float(v[0]) for k, v in self.env.episode_metrics(torch.tensor([0])).items()}
             extra = {"forward_step": ("forward step", "m"), "cadence": ("cadence", "/s per foot"),
                      "air_time": ("air time", "s"), "forward_speed": ("forward speed", "m/s"),

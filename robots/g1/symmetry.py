@@ -9,6 +9,7 @@ y component; an axial vector (angular velocity) keeps its y component and negate
 
 from __future__ import annotations
 
+import mujoco
 import numpy as np
 
 
@@ -58,8 +59,6 @@ def mirror_quaternion(q: np.ndarray) -> np.ndarray:
 def mirror_free_state(model, qpos: np.ndarray, qvel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Mirror a MuJoCo state of the G1 with a free base joint: base position and orientation, base linear (world)
     and angular (body frame) velocity, and every hinge joint swapped with its partner and signed."""
-    import mujoco
-
     qpos, qvel = np.array(qpos, dtype=float), np.array(qvel, dtype=float)
     out_pos, out_vel = qpos.copy(), qvel.copy()
     out_pos[..., 0:3] = mirror_polar(qpos[..., 0:3])

@@ -1,0 +1,70 @@
+"""Each reward group's undiscounted episode return at each preference, under pchc-eval's evaluation preset.
+
+    python tools/diagnostics/objective_returns.py policies/g1_fall_recovery.pt --pushes mild --num-envs 64
+
+Why: the paper's table measures physical quantities (energy in J/s, COM displacement) that the rewards only stand
+in for. The returns of the reward groups are what MultiCriticPPO optimises, so they tell whether a preference's
+policy does best on the objective it weights (the energy return should be highest at (1, 0), and so on), apart from
+how well the reward matches the metric. Returns are the per-step rewards the critics learn from, summed over each
+env's first episode. G1 tasks; --pushes off turns the evaluation preset's pushes off.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import torch
+
+from pchc_rsl.evaluation import evaluation_config, loaded_policy, task_config_of
+from pchc_rsl.evaluation import aggregate, evenly_spaced_preferences, format_metric
+
+
+def first_episode_returns(env, policy, preference) -> torch.Tensor:
+    """[N, groups] each env's first episode's summed reward groups (task first, then the objectives)."""
+    shape = (env.num_envs, 1 + env.num_objectives)
+    sums, returns = torch.zeros(shape), torch.zeros(shape)
+    finished = torch.zeros(env.num_envs, dtype=torch.bool)
+    with torch.inference_mode():
+        env.set_preference(preference)
+        env.reset()
+        obs = env.get_observations()
+        while not finished.all():
+            obs, _, dones, extras = env.step(policy(obs))
+            sums += extras["reward_groups"].cpu()
+            ended = dones.cpu().bool()
+            first = ended & ~finished
+            returns[first] = sums[first]
+            finished |= ended
+            sums[ended] = 0.0
+    return returns
+
+
+def main(argv: list[str] | None = None) -> dict:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("checkpoint")
+    parser.add_argument("--pushes", choices=["off", "mild", "strong"], default="mild")
+    parser.add_argument("--num-envs", type=int, default=64, help="episodes per preference")
+    parser.add_argument("--preferences", type=int, default=5)
+    args = parser.parse_args(argv)
+    config = task_config_of(args.checkpoint, "g1-", "objective_returns", "a G1 task")
+    cfg = evaluation_config(config, "mild" if args.pushes == "off" else args.pushes, args.num_envs, seed=0)
+    cfg.env.push.enabled = args.pushes != "off"
+    runner, policy = loaded_policy(args.checkpoint, cfg)
+    names = ["task", *cfg.env.objective_names]
+    print(f"Undiscounted episode return of each reward group, pushes {args.pushes}, {args.num_envs} episodes per "
+          f"preference ({args.checkpoint}); mean ± 95% interval half-width")
+    print()
+    print("| Preference | " + " | ".join(names) + " |")
+    print("|---|" + "---|" * len(names))
+    table = {}
+    for lam in evenly_spaced_preferences(args.preferences):
+        returns = first_episode_returns(runner.env, policy, lam)
+        summary = aggregate([dict(zip(names, row.tolist())) for row in returns])
+        table[lam] = summary
+        cells = (format_metric(summary[n], summary[f"{n}_ci95"], n, digits=3) for n in names)
+        print(f"| ({lam[0]:.2f}, {lam[1]:.2f}) | " + " | ".join(cells) + " |", flush=True)
+    return table
+
+
+if __name__ == "__main__":
+    main()
