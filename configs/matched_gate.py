@@ -31,6 +31,32 @@ def build_actor(model: ModelConfig, obs: TensorDict, obs_groups: dict, num_actio
     return cls(obs, obs_groups, "actor", num_actions, **kwargs)
 
 
+def sized_like(target: int, model: ModelConfig, obs: TensorDict, obs_groups: dict, num_actions: int,
+               widest: int) -> tuple[list[int], int]:
+    """The expert hidden widths (``model.hidden_dims`` scaled together, at most ``widest``) whose actor's parameter
+    count is closest to ``target``, and that count."""
+    model = copy.deepcopy(model)
+    shape = list(model.hidden_dims)
+    best = None
+    for width in range(1, widest + 1):
+        model.hidden_dims = [max(1, round(h * width / max(shape))) for h in shape]
+        count = parameter_count(build_actor(model, obs, obs_groups, num_actions))
+        if best is None or abs(count - target) < abs(best[1] - target):
+            best = (list(model.hidden_dims), count)
+    return best
+
+
+def matched_pci_variant(pci: ModelConfig, variant: ModelConfig, obs: TensorDict, obs_groups: dict,
+                        num_actions: int) -> tuple[ModelConfig, dict]:
+    """A PCI variant that adds networks (residual experts' shared network, a gate on the Beta density) with expert
+    widths that make its parameter count the PCI actor's; and {"pci": count, "matched": count,
+    "expert_hidden_dims": [...]}."""
+    target = parameter_count(build_actor(pci, obs, obs_groups, num_actions))
+    variant = copy.deepcopy(variant)
+    variant.hidden_dims, count = sized_like(target, variant, obs, obs_groups, num_actions, max(pci.hidden_dims))
+    return variant, {"pci": target, "matched": count, "expert_hidden_dims": list(variant.hidden_dims)}
+
+
 def matched_gate(pci: ModelConfig, obs: TensorDict, obs_groups: dict, num_actions: int) -> tuple[ModelConfig, dict]:
     """A GatedMoEActor config with the PCI actor's expert count and the expert width whose total parameter count is
     closest to the PCI actor's; and {"pci": count, "gated": count, "num_experts": E, "expert_hidden_dims": [...]}."""
@@ -39,12 +65,7 @@ def matched_gate(pci: ModelConfig, obs: TensorDict, obs_groups: dict, num_action
     gated = copy.deepcopy(pci)
     select_actor(gated, "gated")
     gated.kwargs["num_experts"] = int(pci_actor.mlp.positions.shape[0])
-    best = None
-    for width in range(1, max(pci.hidden_dims) + 1):
-        gated.hidden_dims = [max(1, round(h * width / max(pci.hidden_dims))) for h in pci.hidden_dims]
-        count = parameter_count(build_actor(gated, obs, obs_groups, num_actions))
-        if best is None or abs(count - target) < abs(best[1] - target):
-            best = (list(gated.hidden_dims), count)
+    best = sized_like(target, gated, obs, obs_groups, num_actions, max(pci.hidden_dims))
     gated.hidden_dims = best[0]
     return gated, {"pci": target, "gated": best[1], "num_experts": gated.kwargs["num_experts"],
                    "expert_hidden_dims": best[0]}

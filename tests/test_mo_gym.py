@@ -191,6 +191,25 @@ def test_the_matched_gate_has_pcis_expert_count_and_parameter_count():
     assert gated_counts("mo-halfcheetah-v5", matched_gate) == (29_156, 29_231, [62, 62])
 
 
+def test_residual_experts_are_sized_like_pci_by_hand():
+    """mo-halfcheetah-v5 residual experts: a shared network and 5 experts, all [57, 57]: 6 x (19*57 + 57 + 57*57 + 57
+    + 57*6 + 6) + 6 = 28,770 (one unit wider, [58, 58]: 29,724), the closest to PCI's 29,156."""
+    import copy
+
+    from pchc_rsl.configs import matched_gate, task_config
+
+    cfg = task_config("mo-halfcheetah-v5")
+    env = MOGymVecEnv(cfg.env, 1, "cpu", 0)
+    residual = copy.deepcopy(cfg.runner.actor)
+    residual.kwargs["residual_experts"] = True
+    sized, counts = matched_gate.matched_pci_variant(cfg.runner.actor, residual, env.get_observations(),
+                                                     {"actor": cfg.runner.obs_groups["actor"]}, env.num_actions)
+    env.close()
+    per_network = 19 * 57 + 57 + 57 * 57 + 57 + 57 * 6 + 6
+    assert counts == {"pci": 29_156, "matched": 6 * per_network + 6, "expert_hidden_dims": [57, 57]}
+    assert sized.hidden_dims == [57, 57] and sized.kwargs["residual_experts"] is True
+
+
 def gated_counts(task, matched_gate):
     from pchc_rsl.configs import task_config
 

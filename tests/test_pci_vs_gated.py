@@ -63,7 +63,7 @@ def fake_result(variant, seed, hv_scale, eu_scale):
     """A result.json of a 2M-step run: evaluations just past each 250k mark (2048 steps per update)."""
     iterations = [math.ceil(k * 250_000 / 2048) for k in range(1, 9)]
     history = [{"env_steps": it * 2048, "hypervolume": hv_scale * k, "expected_utility": eu_scale * k,
-                "mean_returns": [[0.0, 0.0]]} for k, it in enumerate(iterations, start=1)]
+                "mean_returns": [[100.0 * k, -10.0 * k], [0.0, -1.0]]} for k, it in enumerate(iterations, start=1)]
     return {"variant": variant, "seed": seed, "env_steps": iterations[-1] * 2048, "history": history,
             "routing_mass": {"iterations": list(range(20)), "per_expert": [[0.2] * 20] * 5},
             "cpu_seconds_complete": True}
@@ -97,7 +97,7 @@ def test_report_pairs_the_seeds_and_averages_the_last_three_evaluations(tmp_path
     row = saved["runs"][0]
     assert [e["grid_steps"] for e in row["evaluations"]] == [250_000 * k for k in range(1, 9)]
     assert row["evaluations"][5] == {"env_steps": 733 * 2048, "grid_steps": 1_500_000, "hypervolume": 12.0,
-                                     "expected_utility": 6.0}
+                                     "expected_utility": 6.0, "mean_returns": [[600.0, -60.0], [0.0, -1.0]]}
     assert saved["core_hours"] == pytest.approx((2 * 1800 + 3 * 3600) / 3600)
     # final window: grid points 6, 7, 8 -> mean 7 x the scale
     assert pci_vs_gated.run_figure(row, "hypervolume", pci_vs_gated.FINAL_WINDOW) == pytest.approx(14.0)

@@ -30,7 +30,7 @@ import numpy as np
 import torch
 
 from pchc_rsl.configs import select_actor, task_config
-from pchc_rsl.configs.matched_gate import matched_gate
+from pchc_rsl.configs.matched_gate import matched_gate, matched_pci_variant
 from pchc_rsl.configs.mo_gym import OBJECTIVE_RANGES, REFERENCE_POINTS
 from pchc_rsl.envs.mo_gym import MOGymVecEnv
 from pchc_rsl.evaluation import evenly_spaced_preferences
@@ -43,9 +43,19 @@ from pchc_rsl.utils.files import write_json
 VARIANTS = {
     "pci": ("pci", {}),
     "pci-blind": ("pci", {"experts_see_preference": False}),
+    "pci-residual": ("pci", {"residual_experts": True}),
+    "pci-warmup": ("pci", {}),  # routing_warmup_updates: the first quarter of the run's updates (main)
+    "pci-prior-gate": ("pci", {"prior_gate_hidden_dims": [64]}),
+    "pci-floor": ("pci", {"routing_floor": 0.05}),
     "gated": ("gated", {}),
     "mlp": ("mlp", {}),
 }
+"""Variants: the actor and its kwargs. The pci-* options keep PCI's lambda-routed experts and change what they share
+(pchc_rsl/modules/pci.py, PCIHead): residual experts on a shared network, the routing scale warmed up from 0 over the
+first quarter of training, a learned gate on the Beta density (its hidden width the gate's), a floor of 0.05 on every
+expert's weight."""
+SIZED_LIKE_PCI = ("gated", "pci-residual", "pci-prior-gate")
+"""The variants that add networks to PCI's experts, which --match-pci-parameters sizes like the PCI actor."""
 
 
 def evaluation_preferences(num_objectives: int, count: int, lattice_resolution: int) -> list[tuple[float, ...]]:
@@ -138,14 +148,17 @@ def routing_mass_per_rollout(out: str) -> dict | None:
     return {"iterations": iterations, "per_expert": [[latest[t][i] for i in iterations] for t in tags]}
 
 
-def matched_actor(cfg):
-    """The gated actor config sized like this task's PCI actor, and both parameter counts."""
+def matched_actor(cfg, variant: str):
+    """The variant's actor config sized like this task's PCI actor, and both parameter counts."""
     env = MOGymVecEnv(cfg.env, 1, "cpu", 0)
     obs = env.get_observations()
     env.close()
     pci = copy.deepcopy(task_config(cfg.name).runner.actor)
     select_actor(pci, "pci")
-    return matched_gate(pci, obs, {"actor": cfg.runner.obs_groups["actor"]}, env.num_actions)
+    groups = {"actor": cfg.runner.obs_groups["actor"]}
+    if variant == "gated":
+        return matched_gate(pci, obs, groups, env.num_actions)
+    return matched_pci_variant(pci, cfg.runner.actor, obs, groups, env.num_actions)
 
 
 def resume(runner, saved: dict[int, str], progress_path: str, grid: list[int], steps_per_iteration: int, evaluate,
@@ -226,8 +239,8 @@ def build_parser() -> argparse.ArgumentParser:
                              "below 1 puts more episodes near the simplex vertices)")
     parser.add_argument("--routing-scale", type=float, help="PCI routing scale s (default: the actor's)")
     parser.add_argument("--match-pci-parameters", action="store_true",
-                        help="gated variant: as many experts as PCI has on this task, and expert widths that make the "
-                             "parameter count PCI's (configs/matched_gate.py)")
+                        help=f"{', '.join(SIZED_LIKE_PCI)}: expert widths that make the parameter count PCI's on this "
+                             "task (the gate also gets PCI's expert count; configs/matched_gate.py)")
     parser.add_argument("--fixed-preference", metavar="L1,L2,...",
                         help="train at this preference only and evaluate there (one point of the front)")
     parser.add_argument("--preferences", type=int, default=11, help="evaluation preferences (two objectives)")
@@ -261,9 +274,10 @@ def main(argv: list[str] | None = None) -> dict:
         cfg.runner.actor.kwargs["routing_scale"] = args.routing_scale
     parameters = None
     if args.match_pci_parameters:
-        if args.variant != "gated":
-            raise SystemExit(f"--match-pci-parameters sizes the gated variant, not variant '{args.variant}'.")
-        cfg.runner.actor, parameters = matched_actor(cfg)
+        if args.variant not in SIZED_LIKE_PCI:
+            raise SystemExit(f"--match-pci-parameters sizes the variants {', '.join(SIZED_LIKE_PCI)}, not "
+                             f"'{args.variant}' (it has PCI's parameters).")
+        cfg.runner.actor, parameters = matched_actor(cfg, args.variant)
     num_objectives = len(cfg.env.objective_names)
     if args.fixed_preference is not None:
         lam = validate_preference([float(x) for x in args.fixed_preference.split(",")], num_objectives)
@@ -275,6 +289,8 @@ def main(argv: list[str] | None = None) -> dict:
     os.makedirs(out, exist_ok=True)
     steps_per_iteration = cfg.num_envs * cfg.runner.num_steps_per_env
     iterations = max(1, math.ceil(args.steps / steps_per_iteration))
+    if args.variant == "pci-warmup":
+        cfg.runner.actor.kwargs["routing_warmup_updates"] = max(1, iterations // 4)
 
     def evaluate(policy) -> dict:
         result = evaluate_front(policy, cfg.env, preferences, args.episodes, args.eval_seed, REFERENCE_POINTS[args.task])

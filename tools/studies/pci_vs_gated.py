@@ -25,17 +25,14 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import os
 import re
-import subprocess
 import sys
-import time
-
-import numpy as np
 
 from pchc_rsl.configs.mo_gym import OBJECTIVE_RANGES, REFERENCE_POINTS
-from pchc_rsl.training.study_cells import Cell, claim_cell, run_checkpoints
+from pchc_rsl.evaluation.statistics import paired_log_ratio, pairs_for_power  # noqa: F401 - the study's statistics
+from pchc_rsl.training import study_cells
+from pchc_rsl.training.study_cells import Cell, run_checkpoints, run_figure, run_row
 from pchc_rsl.utils.files import write_json
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -71,93 +68,18 @@ def cell_command(cell: Cell, root: str) -> list[str]:
 
 def run_cell(cell: Cell, root: str) -> None:
     """Train and evaluate one cell unless it is finished or claimed; an interrupted cell resumes."""
-    folder = cell.folder(root)
-    if not claim_cell(folder, restart=False):
-        return
-    start = time.time()
-    try:
-        with open(os.path.join(folder, "log.txt"), "a") as log:
-            code = subprocess.call([*cell_command(cell, root), "--resume"], stdout=log, stderr=subprocess.STDOUT)
-    finally:
-        if os.path.exists(folder + ".claim"):
-            os.remove(folder + ".claim")
-    status = "done" if code == 0 else f"FAILED (exit {code}, see {folder}/log.txt)"
-    print(f"[{time.strftime('%H:%M:%S')}] {cell.name} seed {cell.seed}: {status} in {time.time() - start:.0f} s",
-          flush=True)
+    study_cells.run_cell(cell, root, [*cell_command(cell, root), "--resume"])
 
 
-def grid_point(env_steps: int) -> int:
-    """The grid mark an evaluation belongs to: it ran after the first update at or past that mark."""
-    return env_steps // EVAL_EVERY * EVAL_EVERY
 
 
-def run_row(result: dict) -> dict:
-    """One run of the JSON: variant, seed, env steps, and each evaluation's env steps and measures."""
-    mass = result.get("routing_mass")
-    last_tenth = None
-    if mass:
-        per_expert = np.array(mass["per_expert"])
-        last_tenth = per_expert[:, -max(1, per_expert.shape[1] // 10):].mean(1).round(4).tolist()
-    return {
-        "variant": result["variant"], "seed": result["seed"], "env_steps": result["env_steps"],
-        "evaluations": [{"env_steps": h["env_steps"], "grid_steps": grid_point(h["env_steps"]),
-                         "hypervolume": h["hypervolume"], "expected_utility": h["expected_utility"]}
-                        for h in result["history"]],
-        "parameters": result.get("parameters"), "expert_hidden_dims": result.get("expert_hidden_dims"),
-        "routing_mass_last_tenth": last_tenth, "cpu_seconds": result.get("cpu_seconds"),
-        "cpu_seconds_complete": result.get("cpu_seconds_complete", False), "resumed": result.get("resumed", 0),
-    }
 
 
-def run_figure(row: dict, measure: str, grid_steps) -> float | None:
-    """Mean of a run's measure over these grid points; None when the run lacks one of them."""
-    by_grid = {e["grid_steps"]: e[measure] for e in row["evaluations"]}
-    if any(g not in by_grid for g in grid_steps):
-        return None
-    return float(np.mean([by_grid[g] for g in grid_steps]))
 
 
-def paired_log_ratio(numerator: list[float], denominator: list[float]) -> dict:
-    """Mean over pairs of log(numerator / denominator) with its 95% Student-t interval, and the ratio exp() of each.
-
-    The log makes the comparison scale-free (a ratio, as the paper reports) and symmetric; the pairing removes what a
-    seed does to both variants. Fewer than two pairs: no interval (NaN).
-    """
-    from scipy import stats
-
-    d = np.log(np.asarray(numerator, dtype=float)) - np.log(np.asarray(denominator, dtype=float))
-    n = len(d)
-    mean = float(d.mean()) if n else float("nan")
-    sd = float(d.std(ddof=1)) if n >= 2 else float("nan")
-    half = float(stats.t.ppf(0.975, n - 1) * sd / math.sqrt(n)) if n >= 2 else float("nan")
-    low, high = mean - half, mean + half
-    effect = abs(mean) / sd if sd > 0 else (math.inf if mean else 0.0)  # pairs that all agree: no spread
-    return {"n": n, "mean_log_ratio": mean, "ci95": [low, high], "ratio": math.exp(mean) if n else float("nan"),
-            "ratio_ci95": [math.exp(low), math.exp(high)], "log_ratios": d.tolist(), "sd_log_ratio": sd,
-            "pairs_for_80pct_power": pairs_for_power(effect) if n >= 2 else None}
 
 
-MAX_PAIRS = 10_000
-"""pairs_for_power's search bound: a difference that needs more is reported as too small to settle."""
 
-
-def pairs_for_power(effect: float, power: float = 0.8, alpha: float = 0.05) -> int | None:
-    """The fewest pairs at which a two-sided paired t-test at level ``alpha`` finds a true mean log-ratio of
-    ``effect`` standard deviations of the pair differences with probability ``power`` (the noncentral t; None beyond
-    MAX_PAIRS). With the measured mean and spread as the truth, this is the study size a decisive answer needs."""
-    from scipy import stats
-
-    if math.isnan(effect) or effect <= 0:
-        return None
-    if math.isinf(effect):  # two pairs that agree exactly show it
-        return 2
-    for n in range(2, MAX_PAIRS + 1):
-        critical = stats.t.ppf(1 - alpha / 2, n - 1)
-        shift = effect * math.sqrt(n)
-        achieved = stats.nct.sf(critical, n - 1, shift) + stats.nct.cdf(-critical, n - 1, shift)
-        if achieved >= power:
-            return n
-    return None
 
 
 def analysis(rows: list[dict]) -> dict:
