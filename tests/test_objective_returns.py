@@ -6,7 +6,8 @@ from tool_loader import load_tool
 
 
 class ScriptedEnv:
-    """Two envs, one objective: env 0's episodes last 3 steps, env 1's 2; step t pays (t, 10 t) to every env."""
+    """Two envs, one objective: env 0's episodes last 3 steps and end in a fall, env 1's last 2 and time out; step t
+    pays (t, 10 t) to every env."""
 
     num_envs, num_objectives = 2, 1
 
@@ -28,11 +29,14 @@ class ScriptedEnv:
         dones = self.length == torch.tensor([3, 2])
         self.length[dones] = 0
         groups = torch.tensor([[self.t, 10.0 * self.t]] * 2)
-        return self.get_observations(), None, dones, {"reward_groups": groups}
+        ids = dones.nonzero().squeeze(-1)
+        finished = {"env_ids": ids, "fell": ids == 0}
+        return self.get_observations(), None, dones, {"reward_groups": groups, "episode_metrics": finished}
 
 
 def test_first_episode_returns_match_a_hand_sum():
     tool = load_tool("diagnostics/objective_returns")
-    returns = tool.first_episode_returns(ScriptedEnv(), lambda obs: obs, (1.0, 0.0))
+    returns, fell = tool.first_episode_returns(ScriptedEnv(), lambda obs: obs, (1.0, 0.0))
     # env 0: steps 1-3; env 1: steps 1-2 (its second episode, steps 3-4, is not counted)
     torch.testing.assert_close(returns, torch.tensor([[6.0, 60.0], [3.0, 30.0]]))
+    assert fell.tolist() == [True, False]

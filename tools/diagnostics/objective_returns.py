@@ -6,7 +6,9 @@ Why: the paper's table measures physical quantities (energy in J/s, COM displace
 in for. The returns of the reward groups are what MultiCriticPPO optimises, so they tell whether a preference's
 policy does best on the objective it weights (the energy return should be highest at (1, 0), and so on), apart from
 how well the reward matches the metric. Returns are the per-step rewards the critics learn from, summed over each
-env's first episode. G1 tasks; --pushes off turns the evaluation preset's pushes off.
+env's first episode. G1 tasks; --pushes off turns the evaluation preset's pushes off, any other preset of the task
+(e.g. force-mild) pushes with it. --by-outcome splits the episodes into those that fell and those that stayed up: where
+a group's return is higher in the episodes that fell, a fall is that objective's cheapest answer to the pushes.
 """
 
 from __future__ import annotations
@@ -19,11 +21,13 @@ from pchc_rsl.evaluation import evaluation_config, loaded_policy, task_config_of
 from pchc_rsl.evaluation import aggregate, evenly_spaced_preferences, format_metric
 
 
-def first_episode_returns(env, policy, preference) -> torch.Tensor:
-    """[N, groups] each env's first episode's summed reward groups (task first, then the objectives)."""
+def first_episode_returns(env, policy, preference) -> tuple[torch.Tensor, torch.Tensor]:
+    """[N, groups] each env's first episode's summed reward groups (task first, then the objectives), and [N] bool
+    whether that episode ended in a fall."""
     shape = (env.num_envs, 1 + env.num_objectives)
     sums, returns = torch.zeros(shape), torch.zeros(shape)
     finished = torch.zeros(env.num_envs, dtype=torch.bool)
+    fell = torch.zeros(env.num_envs, dtype=torch.bool)
     with torch.inference_mode():
         env.set_preference(preference)
         env.reset()
@@ -34,35 +38,47 @@ def first_episode_returns(env, policy, preference) -> torch.Tensor:
             ended = dones.cpu().bool()
             first = ended & ~finished
             returns[first] = sums[first]
+            done = extras["episode_metrics"]
+            fell_now = torch.zeros_like(ended)
+            fell_now[done["env_ids"].cpu()] = done["fell"].cpu().bool()
+            fell |= first & fell_now
             finished |= ended
             sums[ended] = 0.0
-    return returns
+    return returns, fell
 
 
 def main(argv: list[str] | None = None) -> dict:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("checkpoint")
-    parser.add_argument("--pushes", choices=["off", "mild", "strong"], default="mild")
+    parser.add_argument("--pushes", default="mild", help="off, or one of the task's push presets (default mild)")
     parser.add_argument("--num-envs", type=int, default=64, help="episodes per preference")
     parser.add_argument("--preferences", type=int, default=5)
+    parser.add_argument("--by-outcome", action="store_true", help="the returns of fallen and of standing episodes")
     args = parser.parse_args(argv)
     config = task_config_of(args.checkpoint, "g1-", "objective_returns", "a G1 task")
-    cfg = evaluation_config(config, "mild" if args.pushes == "off" else args.pushes, args.num_envs, seed=0)
+    try:
+        cfg = evaluation_config(config, "mild" if args.pushes == "off" else args.pushes, args.num_envs, seed=0)
+    except ValueError as error:
+        raise SystemExit(f"objective_returns: --pushes: {error}") from None
     cfg.env.push.enabled = args.pushes != "off"
     runner, policy = loaded_policy(args.checkpoint, cfg)
     names = ["task", *cfg.env.objective_names]
     print(f"Undiscounted episode return of each reward group, pushes {args.pushes}, {args.num_envs} episodes per "
           f"preference ({args.checkpoint}); mean ± 95% interval half-width")
     print()
-    print("| Preference | " + " | ".join(names) + " |")
-    print("|---|" + "---|" * len(names))
+    outcomes = {"fell": True, "stayed up": False} if args.by_outcome else {"all": None}
+    print("| Preference | " + ("episodes | " if args.by_outcome else "") + " | ".join(names) + " |")
+    print("|---|" + "---|" * (len(names) + bool(args.by_outcome)))
     table = {}
     for lam in evenly_spaced_preferences(args.preferences):
-        returns = first_episode_returns(runner.env, policy, lam)
-        summary = aggregate([dict(zip(names, row.tolist())) for row in returns])
-        table[lam] = summary
-        cells = (format_metric(summary[n], summary[f"{n}_ci95"], n, digits=3) for n in names)
-        print(f"| ({lam[0]:.2f}, {lam[1]:.2f}) | " + " | ".join(cells) + " |", flush=True)
+        returns, fell = first_episode_returns(runner.env, policy, lam)
+        for outcome, fallen in outcomes.items():
+            rows = returns if fallen is None else returns[fell == fallen]
+            summary = aggregate([dict(zip(names, row.tolist())) for row in rows]) if len(rows) else {}
+            table[(lam, outcome)] = summary
+            cells = (format_metric(summary[n], summary[f"{n}_ci95"], n, digits=3) if summary else "-" for n in names)
+            label = f"{outcome} ({len(rows)}) | " if fallen is not None else ""
+            print(f"| ({lam[0]:.2f}, {lam[1]:.2f}) | {label}" + " | ".join(cells) + " |", flush=True)
     return table
 
 
