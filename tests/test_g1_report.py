@@ -243,3 +243,26 @@ def test_a_recorded_checkpoint_that_is_not_here_is_named(tmp_path, monkeypatch, 
     monkeypatch.chdir(tmp_path)
     assert g1_report.env_steps("policies/g1_walk.pt") is None
     assert "policies/g1_walk.pt is not here" in capsys.readouterr().err
+
+
+def test_force_push_targets_of_both_cards(tmp_path):
+    """Walker: falls under 300-600 N of 0, 1, 2, 3, 6% (6 > 5: not met; they grow), deviation 0.3, 0.2, ... (does not
+    grow). Fall recovery: 700-1000 N success 20, 30, 40, 50, 60% (grows), COM displacement 1.0, 0.9, 0.8, 0.7, 0.75
+    (does not shrink at the last step). Tables show the force columns."""
+    walk_metrics = [{"stride_length": 0.4, "push_deviation": 0.2, "fall_rate": 0.0, "force-mild/fall_rate": f,
+                     "force-mild/push_deviation": d, "force-legs/fall_rate": 1.0}
+                    for f, d in zip([0, 1, 2, 3, 6], [0.3, 0.2, 0.4, 0.5, 0.6])]
+    walk = write_results(tmp_path / "walk", walk_metrics)
+    path = g1_report.main(["--walk", walk, "--docs", str(tmp_path / "docs")])
+    status = statuses(path)
+    assert status["falls <= 5% at every preference, 300-600 N on the torso or pelvis"] is False
+    assert status["falls grow from (1, 0) to (0, 1), 300-600 N"] is True
+    assert status["deviation grows from (1, 0) to (0, 1), 300-600 N"] is False
+    assert "| Falls, 100-300 N legs (%) |" in open(path).read()
+    fall_metrics = [{"mild/success": 90, "strong/success": 90, "energy_overall": 500, "mild/com_displacement": 1.0,
+                     "force-strong/success": s, "force-mild/com_displacement": c, "force-mild/success": 95}
+                    for s, c in zip([20, 30, 40, 50, 60], [1.0, 0.9, 0.8, 0.7, 0.75])]
+    fall = write_results(tmp_path / "fall", fall_metrics)
+    status = statuses(g1_report.main(["--fall", fall, "--docs", str(tmp_path / "docs2")]))
+    assert status["success grows from (1, 0) to (0, 1), 700-1000 N"] is True
+    assert status["COM displacement shrinks from (1, 0) to (0, 1), 300-600 N"] is False

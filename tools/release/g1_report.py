@@ -279,6 +279,9 @@ def walk_section(results: dict) -> tuple[list[str], list[tuple[str, bool, str]]]
          ", ".join(f"{d:.3f}" for d in deviations) + " m" + ends_note(deviations)),
     ]
     targets += gait_targets(rows)
+    force_lines, force_targets = force_section(rows, WALK_FORCE_COLUMNS, WALK_FORCE_NOTE)
+    lines += force_lines
+    targets += force_targets
     switching = results.get("switching")
     if switching is not None:
         settle = switching["settle_time_s"]
@@ -287,6 +290,57 @@ def walk_section(results: dict) -> tuple[list[str], list[tuple[str, bool, str]]]
                         f"{switching['falls']} falls over the envs; the objectives settle {settle} after the switch"))
     else:
         targets.append(("switching (0, 1) -> (1, 0) mid-episode without a fall", False, "not measured (no --switch)"))
+    return lines, targets
+
+
+WALK_FORCE_COLUMNS = (("force-mild/fall_rate", "Falls, 300-600 N torso/pelvis (%)"),
+                      ("force-mild/push_deviation", "Traj. deviation, 300-600 N (m)"),
+                      ("force-legs/fall_rate", "Falls, 100-300 N legs (%)"),
+                      ("force-legs/push_deviation", "Traj. deviation, 100-300 N legs (m)"))
+WALK_FORCE_NOTE = ("Pushes as forces (docs/evaluation.md, 'Pushes as forces'): 300-600 N for 0.08 s on the torso or "
+                   "pelvis, and 100-300 N for 0.08 s on a knee or ankle, every 3 s in a random direction, same "
+                   "episodes count:")
+FALL_FORCE_COLUMNS = (("force-mild/com_displacement", "COM displ., 300-600 N (m)"),
+                      ("force-mild/success", "Success, 300-600 N (%)"),
+                      ("force-strong/success", "Success, 700-1000 N (%)"))
+FALL_FORCE_NOTE = ("Pushes as forces (docs/evaluation.md, 'Pushes as forces'): 300-600 N and 700-1000 N for 0.1 s on "
+                   "the torso or pelvis once the robot stands, every 3 s in a random direction, same episodes count:")
+WALK_FORCE_FALLS_MAX = 5.0
+
+
+def force_section(rows: list[dict], columns, note: str) -> tuple[list[str], list[tuple[str, bool, str]]]:
+    """The force presets' table, and their targets: few falls at every preference on the walker, and the
+    disturbance end best under them (walker: falls and deviation grow towards the stride end; fall recovery:
+    success grows, the COM displacement shrinks towards the disturbance end)."""
+    shown = [(key, title) for key, title in columns if any(key in row["metrics"] for row in rows)]
+    if not shown:
+        return [], []
+    lines = ["", note, "", "| lambda | " + " | ".join(title for _, title in shown) + " |",
+             "|---|" + "---|" * len(shown)]
+    for row in rows:
+        lines.append(f"| {preference_label(row['preference'])} | " + " | ".join(cell(row, k) for k, _ in shown) + " |")
+    keys = {key for key, _ in shown}
+    targets = []
+    if "force-mild/fall_rate" in keys:  # walking: lambda = (disturbance, stride)
+        falls = [value(r, "force-mild/fall_rate") for r in rows]
+        deviation = [value(r, "force-mild/push_deviation") for r in rows]
+        targets += [
+            (f"falls <= {WALK_FORCE_FALLS_MAX:g}% at every preference, 300-600 N on the torso or pelvis",
+             max(falls) <= WALK_FORCE_FALLS_MAX, ", ".join(f"{f:.1f}" for f in falls) + "%"),
+            ("falls grow from (1, 0) to (0, 1), 300-600 N", increasing(falls) or all(f == 0 for f in falls),
+             ", ".join(f"{f:.1f}" for f in falls) + "%"),
+            ("deviation grows from (1, 0) to (0, 1), 300-600 N", increasing(deviation),
+             ", ".join(f"{d:.3f}" for d in deviation) + " m" + ends_note(deviation)),
+        ]
+    if "force-strong/success" in keys:  # fall recovery: lambda = (energy, disturbance)
+        strong = [value(r, "force-strong/success") for r in rows]
+        com = [value(r, "force-mild/com_displacement") for r in rows]
+        targets += [
+            ("success grows from (1, 0) to (0, 1), 700-1000 N", increasing(strong),
+             ", ".join(f"{x:.1f}" for x in strong) + "%" + ends_note(strong)),
+            ("COM displacement shrinks from (1, 0) to (0, 1), 300-600 N", increasing([-c for c in com]),
+             ", ".join(f"{c:.3f}" for c in com) + " m" + ends_note([-c for c in com])),
+        ]
     return lines, targets
 
 
@@ -319,7 +373,8 @@ def fall_section(results: dict) -> tuple[list[str], list[tuple[str, bool, str]]]
         ("COM displacement shrinks from (1, 0) to (0, 1)", increasing([-c for c in com]),
          ", ".join(f"{c:.3f}" for c in com) + " m" + ends_note([-c for c in com])),
     ]
-    return lines, targets
+    force_lines, force_targets = force_section(rows, FALL_FORCE_COLUMNS, FALL_FORCE_NOTE)
+    return lines + force_lines, targets + force_targets
 
 
 def env_steps(checkpoint: str) -> int | None:
