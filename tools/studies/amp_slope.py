@@ -28,13 +28,17 @@ SETTLE_S, MEASURE_S = 1.0, 4.0
 SHARES = (0.0, 0.25, 0.5, 0.75, 1.0)
 T_POSE = {"left_shoulder_roll_joint": 1.2, "right_shoulder_roll_joint": 1.2}
 """Clip frames with a shoulder rolled out further than 1.2 rad: the arms raised sideways, not walking."""
+SHIPPED = {"grad_penalty_coef": 5.0, "penalty_on": "reference", "learning_rate": 1e-4, "batch_size": 512,
+           "exclude_reference_beyond": None}
+"""The discriminator settings the released policies trained with; every setting below starts from them (not from the
+checkpoint's own, which may differ)."""
 SETTINGS = {
-    "reference penalty 5 (shipped)": {},
-    "reference penalty 50": {"grad_penalty_coef": 50.0},
-    "interpolates penalty 5": {"penalty_on": "interpolates"},
-    "interpolates penalty 50": {"penalty_on": "interpolates", "grad_penalty_coef": 50.0},
-    "interpolates penalty 5, T-pose out": {"penalty_on": "interpolates", "exclude_reference_beyond": T_POSE},
-    "reference penalty 5, lr 1e-5": {"learning_rate": 1e-5},
+    "reference penalty 5 (shipped)": SHIPPED,
+    "reference penalty 50": {**SHIPPED, "grad_penalty_coef": 50.0},
+    "interpolates penalty 5": {**SHIPPED, "penalty_on": "interpolates"},
+    "interpolates penalty 50": {**SHIPPED, "penalty_on": "interpolates", "grad_penalty_coef": 50.0},
+    "interpolates penalty 5, T-pose out": {**SHIPPED, "penalty_on": "interpolates", "exclude_reference_beyond": T_POSE},
+    "reference penalty 5, lr 1e-5": {**SHIPPED, "learning_rate": 1e-5},
 }
 
 
