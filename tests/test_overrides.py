@@ -120,5 +120,5 @@ def test_a_config_saved_under_moved_module_names_restores_as_today():
     for task in ("g1-walk", "g1-fall-recovery"):
         today = task_config(task).to_dict()
         saved = old_names(today)
-        assert "pchc_rsl.envs.g1_rewards:" in str(saved)  # the old names, as a checkpoint saved before the move has them
+        assert "pchc_rsl.envs.g1_rewards:" in str(saved)  # the names a checkpoint saved before the move has
         assert restore_config(saved).to_dict() == today
