@@ -70,10 +70,12 @@ def step_records(task: str, num_envs: int = NUM_ENVS, steps: int = STEPS, seed: 
     return records
 
 
-def rollout_digests(task: str) -> dict:
-    """{"steps": [one digest per step over all its quantities], "quantities": {name: digest over all steps}}."""
+def rollout_digests(task: str, names: list[str] | None = None) -> dict:
+    """{"steps": [one digest per step over all its quantities], "quantities": {name: digest over all steps}}, over
+    the named quantities only where ``names`` is given (a metric added since the recording is not among them)."""
     records = step_records(task)
-    names = sorted({name for record in records for name in record})
+    names = sorted(names if names is not None else {name for record in records for name in record})
+    records = [{k: v for k, v in record.items() if k in names} for record in records]
     return {"steps": [digest(sorted(record.items())) for record in records],
             "quantities": {name: digest([record.get(name) for record in records]) for name in names}}
 

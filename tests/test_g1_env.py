@@ -644,7 +644,9 @@ def test_per_foot_gait_heading_and_steering_metrics_of_a_scripted_limping_turn()
 def test_posture_metrics_are_the_episode_means_of_pelvis_height_and_knee_angle():
     """Two envs, 10 steps: env 0 holds the pelvis at 0.76 m with both knees at 0.67 rad; env 1 crouches from 0.76 to
     0.58 m in 0.02 m steps (mean 0.67) with the left knee at 1.2 and the right at 1.6 rad (mean 1.4 rad = 80.21
-    deg). The knees are found by name, so a joint reorder cannot hand the metric a hip."""
+    deg). The knees are found by name, so a joint reorder cannot hand the metric a hip. Knee torques: env 0 holds
+    30 Nm on both knees in every substep, env 1 alternates 40 and -40 Nm on the left and 0 on the right: RMS 30 and
+    sqrt(40^2 / 2) = 28.28 Nm (every other joint's torque at 100 Nm counts for nothing)."""
     env = make_walk_env(num_envs=2)
     ids = torch.tensor([0, 1])
     env.metrics.reset(ids)
@@ -655,10 +657,16 @@ def test_posture_metrics_are_the_episode_means_of_pelvis_height_and_knee_angle()
         joint_pos[1, left], joint_pos[1, right] = 1.2, 1.6
         env.robot.joint_pos = joint_pos
         env.robot.base_pos = torch.tensor([[0.0, 0.0, 0.76], [0.0, 0.0, 0.76 - 0.02 * i]])
+        torques = torch.full((2, env.cfg.decimation, len(env.cfg.joints)), 100.0)
+        torques[0, :, [left, right]] = 30.0
+        torques[1, :, left] = 40.0 * (-1.0) ** torch.arange(env.cfg.decimation)
+        torques[1, :, right] = 0.0
+        env.robot.torques_substeps = torques
         env.metrics.sums.add(env.metrics.step_quantities())
     m = env.episode_metrics(ids)
     assert m["base_height"].tolist() == pytest.approx([0.76, 0.67], abs=1e-6)
     assert m["knee_flexion"].tolist() == pytest.approx([math.degrees(0.67), math.degrees(1.4)], abs=1e-4)
+    assert m["knee_torque_rms"].tolist() == pytest.approx([30.0, math.sqrt(40.0**2 / 2)], rel=1e-5)
 
 
 def test_heading_error_is_the_turn_against_the_commanded_turn_since_the_command():

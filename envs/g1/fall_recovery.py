@@ -184,7 +184,8 @@ class G1FallRecoveryEnv(G1Env):
 
     def _before_physics(self) -> None:
         self.physics.body_forces[:] = 0.0
-        self.physics.body_forces[:, self.torso_id, 2] = self.cfg.assist_force * self._assist.to(self.physics.body_forces)
+        force = self.cfg.assist_force * self._assist.to(self.physics.body_forces)
+        self.physics.body_forces[:, self.torso_id, 2] = force
         self.global_steps += 1
         self._update_eta()
 

@@ -88,6 +88,7 @@ WALK_EVALUATION = TaskEvaluation(
              "heading_drift_median": "Heading drift, median (deg)", "heading_drift_p90": "Heading drift, p90 (deg)",
              "lateral_drift": "Lateral drift (m)",
              "base_height": "Pelvis height (m)", "knee_flexion": "Knee flexion (deg)",
+             "knee_torque_rms": "Knee torque RMS (Nm; motor rated 139)",
              "strong/fall_rate": "Falls, strong pushes (%)",
              "force-mild/fall_rate": "Falls, 300-600 N on torso or pelvis (%)",
              "force-mild/push_deviation": "Traj. deviation, 300-600 N (m)",
