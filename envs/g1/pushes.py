@@ -19,6 +19,7 @@ import torch
 
 from pchc_rsl.envs.g1.commanded_path import arc_step, rotate
 from pchc_rsl.envs.g1.config import PushConfig
+from pchc_rsl.envs.g1.draws import uniform
 from pchc_rsl.envs.g1.robot_state import RobotState, yaw_of
 
 
@@ -45,6 +46,9 @@ def check_push_config(cfg: PushConfig, body_names: list[str]) -> None:
 
 
 class Pushes:
+    """N envs' pushes: when each comes, what it is (a kick or a force, drawn by the config's shares), and the window,
+    reference and deviations after it."""
+
     def __init__(self, cfg: PushConfig, num_envs: int, dt: float, generator: torch.Generator,
                  body_ids: dict[str, int] | None = None) -> None:
         """``body_ids``: body name -> MuJoCo body id, for force pushes."""
@@ -93,7 +97,7 @@ class Pushes:
                 force: float | None = None, duration_s: float = 0.08, body_id: int | None = None) -> None:
         """Push env ``env_id`` at its next counting step (the viewers' push button), at this speed and angle
         instead of drawn ones where given; with ``force`` (N), a force of that magnitude for ``duration_s`` on body
-        ``body_id`` instead of a kick (needs an env whose physics takes body forces)."""
+        ``body_id`` instead of a kick."""
         self.countdown[env_id] = 1
         self.next_speed[env_id] = math.nan if speed is None else speed
         self.next_angle[env_id] = math.nan if angle is None else angle
@@ -102,7 +106,7 @@ class Pushes:
         self.next_body[env_id] = -1 if force is None else int(body_id)
 
     def _uniform(self, n: int, low: float, high: float) -> torch.Tensor:
-        return low + (high - low) * torch.rand(n, generator=self.generator, device=self.device)
+        return uniform(self.generator, n, low, high)
 
     def _interval(self, n: int) -> torch.Tensor:
         return (self._uniform(n, *self.cfg.interval_s) / self.dt).long().clamp(min=1)
@@ -141,9 +145,8 @@ class Pushes:
         speed = torch.where(self.next_speed.isnan(), self._uniform(n, *self.cfg.velocity), self.next_speed)
         direction = torch.stack([angle.cos(), angle.sin()], -1)
         kicked = due
-        if self.forces_on or physics.body_forces is not None:
-            forced = due & self._start_forces(due, direction)
-            kicked = due & ~forced
+        if physics.body_forces is not None:  # physics that takes body forces (every G1 env's)
+            kicked = due & ~self._start_forces(due, direction)
         kick = torch.where(kicked, speed, 0.0).unsqueeze(-1) * direction
         physics.qvel[:, :2] += kick.to(physics.qvel.dtype)  # the free joint's world-frame linear velocity
         yaw = yaw_of(robot.base_quat)
