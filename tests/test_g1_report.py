@@ -266,3 +266,20 @@ def test_force_push_targets_of_both_cards(tmp_path):
     status = statuses(g1_report.main(["--fall", fall, "--docs", str(tmp_path / "docs2")]))
     assert status["success grows from (1, 0) to (0, 1), 700-1000 N"] is True
     assert status["COM displacement shrinks from (1, 0) to (0, 1), 300-600 N"] is False
+
+
+def test_posture_table_and_upright_target(tmp_path):
+    """Pelvis 0.74, 0.73, 0.72, 0.71, 0.70 m meets 0.70 m at every preference; knees 40-58 deg miss 55 deg at (0, 1)
+    alone; a walker whose knees stay at 50 deg meets both."""
+    def walker(folder, knees):
+        rows = [{"stride_length": 0.4, "push_deviation": 0.2, "fall_rate": 0.0, "base_height": h, "knee_flexion": k,
+                 "knee_torque_rms": 30.0} for h, k in zip([0.74, 0.73, 0.72, 0.71, 0.70], knees)]
+        return g1_report.main(["--walk", write_results(tmp_path / folder, rows), "--docs", str(tmp_path / folder)])
+
+    name = "upright: pelvis >= 0.7 m and knee flexion <= 55 deg at every preference"
+    path = walker("bent", [40, 45, 50, 52, 58])
+    assert statuses(path)[name] is False
+    text = open(path).read()
+    assert "| Pelvis height (m) | Knee flexion (deg) | Knee torque RMS (Nm) |" in text
+    assert "| (0.00, 1.00) | 0.70 | 58.0 | 30.0 |" in text
+    assert statuses(walker("upright", [50] * 5))[name] is True

@@ -162,6 +162,12 @@ FOOT_COLUMNS = (("air_time_left", "Swing left (s)"), ("air_time_right", "Swing r
                 ("forward_step_left", "Step left (m)"), ("forward_step_right", "Step right (m)"),
                 ("heading_drift_median", "Heading drift, median (deg)"),
                 ("heading_drift_p90", "Heading drift, p90 (deg)"), ("lateral_drift", "Lateral drift (m)"))
+POSTURE_COLUMNS = (("base_height", "Pelvis height (m)"), ("knee_flexion", "Knee flexion (deg)"),
+                   ("knee_torque_rms", "Knee torque RMS (Nm)"))
+POSTURE_NOTE = ("Posture, same episodes (each episode's mean, then the mean over episodes): the G1's default pose "
+                "stands with the pelvis at 0.76 m, the LAFAN1 walk keeps it at 0.77 m with the knees at 34 +- 17 "
+                "deg; the knee motors are rated 139 Nm.")
+PELVIS_MIN, KNEE_FLEXION_MAX = 0.70, 55.0
 SYMMETRY_MAX = 1.2
 HEADING_MEDIAN_MAX, HEADING_P90_MAX = 5.0, 10.0
 SPEED_RANGE = (0.4, 0.6)
@@ -192,6 +198,13 @@ def gait_targets(rows: list[dict]) -> list[tuple[str, bool, str]]:
                         f"{HEADING_P90_MAX:g} degrees", max(median) <= HEADING_MEDIAN_MAX and max(p90) <= HEADING_P90_MAX,
                         "median " + ", ".join(f"{x:.1f}" for x in median) + "; p90 "
                         + ", ".join(f"{x:.1f}" for x in p90) + " degrees"))
+    if all("base_height" in row["metrics"] and "knee_flexion" in row["metrics"] for row in rows):
+        height = [value(r, "base_height") for r in rows]
+        knee = [value(r, "knee_flexion") for r in rows]
+        targets.append((f"upright: pelvis >= {PELVIS_MIN:g} m and knee flexion <= {KNEE_FLEXION_MAX:g} deg at every "
+                        "preference", min(height) >= PELVIS_MIN and max(knee) <= KNEE_FLEXION_MAX,
+                        "pelvis " + ", ".join(f"{h:.2f}" for h in height) + " m; knees "
+                        + ", ".join(f"{k:.0f}" for k in knee) + " deg"))
     if not all("forward_speed" in row["metrics"] and "forward_step" in row["metrics"] for row in rows):
         return targets
     speed = [value(r, "forward_speed") for r in rows]
@@ -265,6 +278,13 @@ def walk_section(results: dict) -> tuple[list[str], list[tuple[str, bool, str]]]
         for row in rows:
             lines.append(f"| {preference_label(row['preference'])} | "
                          + " | ".join(cell(row, key, 1 if key.startswith("heading") else 2) for key, _ in feet) + " |")
+    posture = [(key, title) for key, title in POSTURE_COLUMNS if any(key in row["metrics"] for row in rows)]
+    if posture:
+        lines += ["", POSTURE_NOTE, "", "| lambda (disturbance, stride) | "
+                  + " | ".join(title for _, title in posture) + " |", "|---|" + "---|" * len(posture)]
+        for row in rows:
+            lines.append(f"| {preference_label(row['preference'])} | "
+                         + " | ".join(cell(row, key, 2 if key == "base_height" else 1) for key, _ in posture) + " |")
     falls = [value(r, "fall_rate") for r in rows]
     episodes = min(r["episodes"] for r in rows)
     strides = [value(r, "stride_length") for r in rows]
