@@ -57,9 +57,9 @@ def test_a_released_toy_policy_evaluates_and_resumes(tmp_path):
     assert "optimizer_state_dict" in resumed  # a fresh optimizer, saved from then on
 
 
-def test_a_released_fall_recovery_policy_resumes_where_its_curriculum_was(tmp_path):
-    """The curriculum (assist level, eta's step count) is the env's progress, not a random stream: releasing keeps
-    it, so that --resume continues a released policy at the assist and action scale it was trained at."""
+def fall_recovery_checkpoint_trained_for_long(tmp_path):
+    """A one-iteration fall-recovery checkpoint whose curriculum reads as if trained for long (assist 0.35, eta's
+    step count 20000); skips where the G1 model is unavailable."""
     from test_g1_env import g1_available
 
     if not g1_available():
@@ -68,9 +68,16 @@ def test_a_released_fall_recovery_policy_resumes_where_its_curriculum_was(tmp_pa
                     "runner.num_steps_per_env=4", "--log-dir", str(tmp_path / "run")])
     original = tmp_path / "run" / "model_0.pt"
     saved = torch.load(original, weights_only=True)
-    saved["training_state"]["env"].update(assist_level=0.35, global_steps=20000)  # as if trained for long
+    saved["training_state"]["env"].update(assist_level=0.35, global_steps=20000)
     torch.save(saved, original)
-    released = release_checkpoint(saved)
+    return original
+
+
+def test_a_released_fall_recovery_policy_resumes_where_its_curriculum_was(tmp_path):
+    """The curriculum (assist level, eta's step count) is the env's progress, not a random stream: releasing keeps
+    it, so that --resume continues a released policy at the assist and action scale it was trained at."""
+    original = fall_recovery_checkpoint_trained_for_long(tmp_path)
+    released = release_checkpoint(torch.load(original, weights_only=True))
     assert released["training_state"] == {"env": {"assist_level": 0.35, "global_steps": 20000}}
     runs_cli.main(["release", str(original), "--name", "fall", "--out", str(tmp_path / "policies")])
     pt = str(tmp_path / "policies" / "fall.pt")
@@ -120,20 +127,12 @@ def test_export_onnx_refuses_to_replace_a_file_without_force(tmp_path):
 def test_init_from_keeps_the_curriculum_progress_and_not_the_random_streams(tmp_path):
     """--init-from of a fall-recovery checkpoint: a new run (iterations from 0, fresh optimizer) whose curriculum
     continues where the networks were trained (assist 0.35, eta's step count), with the run's own random streams."""
-    from test_g1_env import g1_available
-
-    if not g1_available():
-        pytest.skip("G1 model unavailable (set MENAGERIE_ROOT)")
-    train_cli.main(["--task", "g1-fall-recovery-fast", "--num-envs", "2", "--max-iterations", "1",
-                    "runner.num_steps_per_env=4", "--log-dir", str(tmp_path / "run")])
-    original = tmp_path / "run" / "model_0.pt"
-    saved = torch.load(original, weights_only=True)
-    saved["training_state"]["env"].update(assist_level=0.35, global_steps=20000)
-    torch.save(saved, original)
+    original = fall_recovery_checkpoint_trained_for_long(tmp_path)
     train_cli.main(["--task", "g1-fall-recovery-fast", "--num-envs", "2", "--max-iterations", "1", "--seed", "5",
                     "runner.num_steps_per_env=4", "--init-from", str(original), "--log-dir", str(tmp_path / "new")])
     new = torch.load(tmp_path / "new" / "model_0.pt", weights_only=True)
     assert new["iter"] == 0 and new["training_state"]["env"]["global_steps"] == 20000 + 4
+    saved = torch.load(original, weights_only=True)
     assert not torch.equal(new["training_state"]["env"]["generator"], saved["training_state"]["env"]["generator"])
 
 
