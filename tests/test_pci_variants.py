@@ -46,8 +46,12 @@ def test_the_report_section_replaces_its_old_self_and_keeps_the_rest(tmp_path, m
     docs.mkdir()
     (docs / "mo_study.md").write_text("# Study\n\nbefore\n\n<!-- pci-variants:start -->\nold\n<!-- pci-variants:end -->\n"
                                       "\nafter\n")
+    landed_pci = [row("pci", s, 1.0) for s in range(2)]
+    for r in landed_pci:  # the landed study kept no per-preference returns
+        for e in r["evaluations"]:
+            del e["mean_returns"]
     study = pci_variants.write_report(str(tmp_path / "runs"), ["pci-floor"], [0, 1], 1_000_000, str(docs), gates,
-                                      gaits=False)
+                                      gaits=False, landed_pci=landed_pci)
     page = (docs / "mo_study.md").read_text()
     assert page.startswith("# Study\n\nbefore\n\n<!-- pci-variants:start -->") and page.endswith("\nafter\n")
     assert "old" not in page and "| pci-floor |" in page and "1 of 2" in page
@@ -55,3 +59,6 @@ def test_the_report_section_replaces_its_old_self_and_keeps_the_rest(tmp_path, m
     saved = json.loads((docs / "pci_variants.json").read_text())
     assert saved["screen"]["pci-floor"]["against_gate"]["hypervolume"]["n"] == 2
     assert study["gate_runs"]["hypervolume"] == [2.0, 2.0]
+    # the study's PCI is the first row, paired with the same gate runs: 1 against 2 in both pairs
+    assert page.index("| pci | PCI as in the paired study") < page.index("| pci-floor |")
+    assert "| 0.50 [0.50, 0.50], n = 2 |" in page and "| 2 of 2 | - |" in page

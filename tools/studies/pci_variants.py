@@ -14,7 +14,8 @@ The screen trains each variant (tools/studies/mo_benchmark.py, evaluated every 2
 the gate's run of the same seed at the same evaluation (1M env steps, or at 2M the mean of 1.5M, 1.75M and 2M as the
 study does): the 95% Student-t interval of the mean paired log-ratio variant / gate of the hypervolume and of the
 expected utility (pchc_rsl/evaluation/statistics.py); a run "in the low mode" ends below the lowest of the gate's runs
-at that evaluation. The report writes ``pci_variants.json`` and the study's section of ``mo_study.md``.
+at that evaluation. The study's own PCI runs (routing scale 3) are paired the same way as the reference row. The report
+writes ``pci_variants.json`` and the study's section of ``mo_study.md``.
 """
 
 from __future__ import annotations
@@ -91,11 +92,11 @@ def cell_row(cell: Cell, root: str) -> dict | None:
         return {**run_row(json.load(f)), "variant": cell.name}
 
 
-def gate_rows(path: str) -> list[dict]:
-    """The gate's runs of the landed PCI-against-gate study."""
+def landed_rows(path: str, variant: str = "gated") -> list[dict]:
+    """One variant's runs of the landed PCI-against-gate study: the gate's, or PCI's at routing scale 3 ("pci")."""
     with open(path) as f:
         study = json.load(f)
-    return [r for r in study["runs"] if r["variant"] == "gated"]
+    return [r for r in study["runs"] if r["variant"] == variant]
 
 
 def screen_figures(steps: int) -> tuple[int, ...]:
@@ -156,7 +157,7 @@ def gait_at(folder: str, preference: tuple[float, float], episodes: int = 5, see
 
 
 def study_json(root: str, variants: list[str], seeds: list[int], steps: int, gates: list[dict],
-               gaits: bool = True) -> dict:
+               gaits: bool = True, landed_pci: list[dict] = ()) -> dict:
     grid = screen_figures(steps)
     diagnosis = []
     for cell in diagnosis_cells():
@@ -165,6 +166,9 @@ def study_json(root: str, variants: list[str], seeds: list[int], steps: int, gat
             row["gait_at_1_0"] = gait_at(cell.folder(root), (1.0, 0.0)) if gaits else None
             diagnosis.append(row)
     screen = {}
+    if landed_pci:  # the reference every variant changes: the study's PCI, its runs at the same evaluations
+        screen["pci"] = {"description": "PCI as in the paired study (routing scale 3; its runs there)",
+                         "runs": list(landed_pci), "against_gate": compare(list(landed_pci), gates, grid)}
     for name in variants:
         rows = [r for c in screen_cells([name], seeds, steps) if (r := cell_row(c, root)) is not None]
         if rows:
@@ -220,8 +224,9 @@ def markdown_section(study: dict) -> str:
             forward = [r[0][0] for row in entry["runs"] if (r := returns_at(row, grid))]
             masses = [row["routing_mass_last_tenth"] for row in entry["runs"] if row.get("routing_mass_last_tenth")]
             mass = ", ".join(f"{m:.2f}" for m in np.mean(masses, axis=0)) if masses else "-"
+            forward = f"{np.mean(forward):.0f}" if forward else "-"
             lines.append(f"| {name} | {entry['description']} | {interval(hv)} | {interval(eu)} | "
-                         f"{hv['below_every_gate_run']} of {hv['n']} | {np.mean(forward):.0f} | {mass} |")
+                         f"{hv['below_every_gate_run']} of {hv['n']} | {forward} | {mass} |")
         lines.append("")
     lines += ["Reproduce: `python tools/studies/pci_variants.py --out RUNS` (resumable; one cell: the commands in "
               "`pci_variants.json`), then `--report-only --docs docs/results`.", f"<!-- {SECTION}:end -->", ""]
@@ -236,8 +241,8 @@ def replace_section(page: str, body: str) -> str:
 
 
 def write_report(root: str, variants: list[str], seeds: list[int], steps: int, docs: str | None, gates: list[dict],
-                 gaits: bool = True) -> dict:
-    study = study_json(root, variants, seeds, steps, gates, gaits)
+                 gaits: bool = True, landed_pci: list[dict] = ()) -> dict:
+    study = study_json(root, variants, seeds, steps, gates, gaits, landed_pci)
     name = "pci_variants.json" if steps == 1_000_000 else f"pci_variants_{steps // 1000}k.json"
     for folder in [root] + ([docs] if docs else []):
         os.makedirs(folder, exist_ok=True)
@@ -261,13 +266,13 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--docs", help="also write the JSON and the mo_study.md section into this folder")
     parser.add_argument("--gate", default=LANDED_GATE, help="the PCI-against-gate report whose gate runs pair")
     args = parser.parse_args(argv)
-    gates = gate_rows(args.gate)
+    gates, landed_pci = landed_rows(args.gate), landed_rows(args.gate, "pci")
     if not args.report_only:
         cells = ([] if args.no_diagnosis else diagnosis_cells()) + screen_cells(args.variants, args.seeds, args.steps)
         for cell in cells:
             if not os.path.isfile(os.path.join(cell.folder(args.out), "result.json")):
                 study_cells.run_cell(cell, args.out, [*cell_command(cell, args.out), "--resume"])
-    study = write_report(args.out, args.variants, args.seeds, args.steps, args.docs, gates)
+    study = write_report(args.out, args.variants, args.seeds, args.steps, args.docs, gates, landed_pci=landed_pci)
     for name, entry in study["screen"].items():
         print(f"{name}: HV {interval(entry['against_gate']['hypervolume'])}; EU "
               f"{interval(entry['against_gate']['expected_utility'])}")
