@@ -44,8 +44,8 @@ def test_the_report_section_replaces_its_old_self_and_keeps_the_rest(tmp_path, m
                                                         "preferences": r["preferences"]}))
     docs = tmp_path / "docs"
     docs.mkdir()
-    (docs / "mo_study.md").write_text("# Study\n\nbefore\n\n<!-- pci-variants:start -->\nold\n<!-- pci-variants:end -->\n"
-                                      "\nafter\n")
+    (docs / "mo_study.md").write_text("# Study\n\nbefore\n\n<!-- pci-variants:start -->\nold\n"
+                                      "<!-- pci-variants:end -->\n\nafter\n")
     landed_pci = [row("pci", s, 1.0) for s in range(2)]
     for r in landed_pci:  # the landed study kept no per-preference returns
         for e in r["evaluations"]:
