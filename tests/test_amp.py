@@ -457,3 +457,37 @@ def test_grad_penalty_on_interpolates_is_taken_between_reference_and_policy_wind
     assert info["amp/grad_penalty"] != pytest.approx(reference_grad_penalty(disc, reference), rel=1e-2)
     with pytest.raises(ValueError, match="penalty_on 'everywhere'"):
         disc.loss(reference, policy, grad_penalty_coef=5.0, penalty_on="everywhere")
+
+
+def test_a_loaded_discriminator_trains_at_the_learning_rate_it_is_given(tmp_path):
+    """A checkpoint's optimiser state carries its learning rate; a run continued from it with another one (a resume or
+    an --init-from with a changed amp_cfg.learning_rate) must step at the new rate: Adam's first steps move each
+    weight by about the learning rate, so the same update from the same state moves ten times less at a tenth."""
+    from pchc_rsl.amp.style import AMPStyle
+
+    joints = ["a", "b"]
+    t = np.arange(60) / 30.0
+    write_npz(tmp_path / "clip.npz", fps=30, dof_names=np.array(joints),
+              dof_positions=np.stack([np.sin(t), np.cos(t)], axis=1))
+
+    def style(learning_rate):
+        torch.manual_seed(0)
+        return AMPStyle([str(tmp_path / "clip.npz")], joints, fps=30, input_dim=10, learning_rate=learning_rate,
+                        hidden_dims=(8,), num_updates=1, batch_size=16)
+
+    trained = style(1e-4)
+    trained.reward(torch.randn(64, 10))
+    trained.update()
+    saved = trained.state_dict()
+
+    moves = {}
+    for learning_rate in (1e-4, 1e-5):
+        loaded = style(learning_rate)
+        loaded.load_state_dict(saved)
+        assert [g["lr"] for g in loaded.optimizer.param_groups] == [learning_rate]
+        before = [p.detach().clone() for p in loaded.discriminator.parameters()]
+        torch.manual_seed(1)
+        loaded.update()
+        moves[learning_rate] = max((p - b).abs().max().item()
+                                   for p, b in zip(loaded.discriminator.parameters(), before))
+    assert moves[1e-4] / moves[1e-5] == pytest.approx(10.0, rel=0.05)

@@ -47,6 +47,7 @@ class AMPStyle:
             else None
         self.reference = MotionWindows(clips, window, device, keep)
         self.discriminator = AMPDiscriminator(input_dim, hidden_dims, input_normalization=True).to(device)
+        self.learning_rate = learning_rate
         self.optimizer = torch.optim.Adam(self.discriminator.parameters(), lr=learning_rate)
         self.replay = ReplayBuffer(replay_capacity, input_dim, device)
         self.scale, self.grad_penalty_coef = style_reward_scale, grad_penalty_coef
@@ -89,5 +90,8 @@ class AMPStyle:
         self.discriminator.load_state_dict(state["discriminator"])
         if "optimizer" in state:  # released policies carry the discriminator only
             self.optimizer.load_state_dict(state["optimizer"])
+            # torch restores the saved learning rate with Adam's moments: keep the one this run was given
+            for group in self.optimizer.param_groups:
+                group["lr"] = self.learning_rate
         if "replay" in state:  # without it (older checkpoints, released policies) the buffer starts empty
             self.replay.load_state_dict(state["replay"])
