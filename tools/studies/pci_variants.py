@@ -48,6 +48,7 @@ VARIANT_ARGS = {
     "pci-warmup": ["--variant", "pci-warmup", "--routing-scale", "3"],
     "pci-prior-gate": ["--variant", "pci-prior-gate", "--routing-scale", "3", "--match-pci-parameters"],
     "pci-floor": ["--variant", "pci-floor", "--routing-scale", "3"],
+    "pci-s1": ["--variant", "pci", "--routing-scale", "1"],
 }
 """The screen's variants and their mo_benchmark arguments (tools/studies/mo_benchmark.py, VARIANTS)."""
 DESCRIPTIONS = {
@@ -56,6 +57,7 @@ DESCRIPTIONS = {
     "pci-warmup": "routing scale warmed up from 0 to 3 over the first quarter of training",
     "pci-prior-gate": "a learned gate on top of the Beta density, starting as exact PCI (parameters matched)",
     "pci-floor": "every expert's routing weight at least 0.05",
+    "pci-s1": "softer routing: scale 1 (weights 0, .1, .2, .3, .4 at lambda = (1, 0), the reverse at (0, 1))",
 }
 DIAGNOSIS = Cell("pci_variants", TASK, "pci-s3-750k", 0, ["--variant", "pci", "--routing-scale", "3", "--steps",
                                                           "750000", "--eval-every", str(EVAL_EVERY)])
