@@ -226,6 +226,22 @@ def test_stride_reward_gated_by_path_pays_less_the_further_the_base_is_from_its_
     torch.testing.assert_close(g1_rewards.stride(env, path_std=0.25), expected)
 
 
+def test_stride_reward_gated_by_height_pays_less_the_lower_the_pelvis():
+    """height_std 0.08 below a target of 0.74 m: a 0.3 m step pays 0.3 with the pelvis at 0.78 or 0.74 m,
+    0.3 e^-0.25 at 0.70 m and 0.3 e^-2.25 at 0.62 m."""
+    from pchc_rsl.envs.g1 import rewards as g1_rewards
+
+    env = make_walk_env(num_envs=4)
+    env.feet.stance_step[:] = torch.tensor([[0.3, 0.0], [0.0, 0.0]])
+    env.commands[:] = torch.tensor([0.5, 0.0, 0.0])
+    base_pos = env.robot.base_pos.clone()
+    base_pos[:, 2] = torch.tensor([0.78, 0.74, 0.70, 0.62])
+    env.robot.base_pos = base_pos
+    expected = torch.tensor([0.3, 0.3, 0.3 * math.exp(-0.25), 0.3 * math.exp(-2.25)])
+    torch.testing.assert_close(g1_rewards.stride(env, height_target=0.74, height_std=0.08), expected)
+    torch.testing.assert_close(g1_rewards.stride(env), torch.full((4,), 0.3))  # off by default
+
+
 def test_action_delay_holds_the_previous_target_for_the_first_substeps():
     """env.action_delay_s (0.01, 0.01) on the fast physics (5 ms substeps): 2 of the 4 substeps hold the old
     target; the physics receives one control per substep."""

@@ -153,7 +153,8 @@ def alive(env) -> torch.Tensor:
 def stride(env, along_heading: bool = True, min_command: float = 0.1, speed_std: float | None = None,
            along_command: bool = False, fall_cost: float = 0.0, at_command_speed: bool = False,
            path_std: float | None = None, average_speed_std: float | None = None,
-           commanded_length: bool = False) -> torch.Tensor:
+           commanded_length: bool = False, height_target: float = 0.74,
+           height_std: float | None = None) -> torch.Tensor:
     """The paper's r_stride = I_contact ||p_current - p_last_contact||, read per step: every step a foot is in
     contact (I_contact, a state) it pays the length of the step that put it there, from the point where it last
     touched the ground before this stance (p_last_contact) to where it stands now (p_current).
@@ -207,6 +208,11 @@ def stride(env, along_heading: bool = True, min_command: float = 0.1, speed_std:
     costs the same. Measured alone over 200 iterations, it does not hold the stride end to its command either
     (docs/design.md, "Action noise"); the walking config pays it, as the released walker trained.
 
+    ``height_std`` (m; None: off) pays a step only as far as the pelvis stays up: times
+    exp(-min(0, z - height_target)^2 / height_std^2), 1 at or above ``height_target`` (m). Without it the walker sinks
+    into a crouch as the stride's weight grows, whatever the style reward pays (docs/design.md, "A style reward that
+    pulls").
+
     ``fall_cost``: as r_disturb's. A fall ends the episode and with it the stride pay, which at the end that weights
     stride alone is the only price of falling. Not in the paper's equation: docs/design.md, "Fall costs"."""
     step = env.feet.stance_step  # [N, foot, (forward, lateral)], 0 in the air
@@ -231,6 +237,9 @@ def stride(env, along_heading: bool = True, min_command: float = 0.1, speed_std:
         reward = reward * track_average_lin_vel_xy(env, average_speed_std)
     if path_std is not None:
         reward = reward * position_hold(env, path_std)
+    if height_std is not None:
+        sunk = (env.robot.base_pos[:, 2] - height_target).clamp(max=0.0)
+        reward = reward * torch.exp(-(sunk**2) / height_std**2)
     return reward - charged_fall(env, fall_cost)
 
 
