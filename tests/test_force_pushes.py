@@ -23,14 +23,15 @@ FREE_BOX = """
 
 def push_a_free_box(physics, magnitude: float, duration_s: float, steps: int = 6):
     """A free 2.5 kg box in zero gravity, pushed once by a force of ``magnitude`` N for ``duration_s`` through the
-    Pushes of an env with 0.02 s steps; returns its linear velocity after ``steps`` steps and the push direction."""
+    Pushes of an env with 0.02 s steps; returns its linear velocity after ``steps`` steps and the push direction
+    (``last_pushes`` keeps the Pushes)."""
     model = physics.model
     cfg = PushConfig(interval_s=(10.0, 10.0), velocity_share=0.0,
                      force=ForcePushConfig(share=1.0, bodies={"box": 1.0}, magnitude=(magnitude, magnitude),
                                            duration_s=(duration_s, duration_s)))
     check_push_config(cfg, [model.body(i).name for i in range(model.nbody)])
     pushes = Pushes(cfg, 1, 0.02, torch.Generator(physics.device).manual_seed(0),
-                    body_ids={"box": model.body("box").id})
+                    body_ids={"box": model.body("box").id}, robot_mass=2.5)
     pushes.reset(torch.tensor([0]))
     pushes.countdown[:] = 2  # one step without a push, then the push
     for _ in range(steps):
@@ -41,6 +42,7 @@ def push_a_free_box(physics, magnitude: float, duration_s: float, steps: int = 6
         pushes.add_forces(physics)
         physics.step(torch.zeros(1, model.nu))
         pushes.advance_window()
+    push_a_free_box.last_pushes = pushes
     return physics.qvel[0, :3].double(), pushes.direction[0].double()
 
 
@@ -64,6 +66,31 @@ def test_a_force_on_a_free_body_changes_its_momentum_by_force_times_duration(dur
     expected = 400.0 * duration_s / 2.5
     torch.testing.assert_close(velocity[:2], expected * direction, atol=1e-6, rtol=1e-6)  # float32 forces
     assert abs(velocity[2]) < 1e-12 and abs(direction.norm() - 1) < 1e-6
+
+
+def test_a_push_size_is_the_speed_it_gives_the_whole_body():
+    """The size the critic can see (``Pushes.size``): a force's impulse over the body's mass is the speed the free
+    box ends with; a kick's size is the kick's speed, read off the velocity it added."""
+    velocity, _ = push_a_free_box(free_box_physics("mujoco"), 400.0, 0.05)
+    assert push_a_free_box.last_pushes.size[0].item() == pytest.approx(velocity[:2].norm().item(), rel=1e-5)
+
+    n = 64
+    cfg = PushConfig(interval_s=(10.0, 10.0), velocity=(0.5, 2.0), velocity_share=1.0,
+                     force=ForcePushConfig(share=1.0, bodies={"box": 1.0}, magnitude=(100.0, 500.0),
+                                           duration_s=(0.05, 0.1)))
+    pushes = Pushes(cfg, n, 0.02, torch.Generator().manual_seed(3), body_ids={"box": 1}, robot_mass=2.5)
+    physics = SimpleNamespace(qvel=torch.zeros(n, 6, dtype=torch.float64),
+                              body_forces=torch.zeros(n, 2, 6, dtype=torch.float64))
+    robot = SimpleNamespace(base_pos=torch.zeros(n, 3), base_quat=torch.tensor([[1.0, 0, 0, 0]]).expand(n, 4),
+                            com_pos=torch.zeros(n, 3))
+    pushes.countdown[:] = 1
+    pushes.apply(physics, robot, torch.zeros(n, 3))
+    forced = pushes.force_left_s > 0
+    assert 0 < forced.sum() < n
+    kick_speed = physics.qvel[:, :2].norm(dim=-1).float()
+    torch.testing.assert_close(pushes.size[~forced], kick_speed[~forced], atol=1e-6, rtol=0)
+    impulse_speed = pushes.force[:, :2].norm(dim=-1) * pushes.force_left_s / 2.5
+    torch.testing.assert_close(pushes.size[forced], impulse_speed[forced], atol=1e-5, rtol=1e-5)
 
 
 def test_the_warp_path_gives_the_same_push_as_c_mujoco():

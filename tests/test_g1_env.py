@@ -426,6 +426,22 @@ def test_critic_push_timing_adds_the_window_left_and_the_time_to_the_next_push()
     torch.testing.assert_close(env.get_observations()["critic"][0, -2:], torch.tensor(expected))
 
 
+def test_critic_push_size_adds_the_kicks_speed_inside_its_window_and_zero_after():
+    from pchc_rsl.envs.g1.config import PushConfig
+
+    plain = make_walk_env(num_envs=2)
+    env = make_walk_env(num_envs=2, critic_push_size=True,
+                        push=PushConfig(interval_s=(60.0, 60.0), velocity=(0.5, 2.0), window_s=0.1))
+    assert env.get_observations()["critic"].shape[-1] == plain.get_observations()["critic"].shape[-1] + 1
+    assert (env.get_observations()["critic"][:, -1] == 0).all()
+    kick = push_now(env)
+    env.step(torch.zeros(2, 20))
+    torch.testing.assert_close(env.get_observations()["critic"][:, -1], kick.norm(dim=-1), atol=1e-5, rtol=0)
+    for _ in range(round(0.1 / env.dt)):
+        env.step(torch.zeros(2, 20))
+    assert (env.get_observations()["critic"][:, -1] == 0).all()
+
+
 def test_critic_command_state_adds_the_path_offset_in_the_heading_frame_the_heading_error_and_the_average():
     """A robot facing +y (yaw pi/2) standing 0.3 m along x and 0.1 m along y from its path's point: in its heading
     frame the offset is 0.1 m ahead and 0.3 m to its right, (0.1, -0.3)."""

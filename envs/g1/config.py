@@ -133,6 +133,12 @@ class G1EnvConfig:
     """Also give the critic the time left in the push window and until the next push. r_disturb's value depends on
     both; without them its critic cannot predict it, and its advantage (normalised to unit scale) is mostly noise.
     Changes the critic's input size: checkpoints trained without it do not load with it."""
+    critic_push_size: bool = False
+    """Also give the critic the push's size, as the horizontal velocity it gives the whole robot (m/s), inside its
+    window. The deviation a push leaves grows with its size, which is drawn over a wide range (forces of 300-1000 N
+    for 0.1 s give a 33 kg robot 0.9-3.0 m/s); without it the critic sees where the push went, not how hard it was,
+    and the disturbance advantage carries the draw's luck. Changes the critic's input size (``pchc-train
+    --init-from`` widens a checkpoint's critics with zero weights for it)."""
     critic_command_state: bool = False
     """Also give the critic the state that the task's holds read: the base's offset from the commanded path (in the
     base's heading frame), the heading error and the averaged velocity. position_hold, heading_hold and the average

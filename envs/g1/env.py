@@ -84,7 +84,8 @@ class G1Env(VecEnv):
         self.feet = FootContacts(n, self.dt, cfg.contact_force_threshold, dev)
         pushed_bodies = cfg.push.force.bodies if cfg.push.force.share > 0 else {}
         self.pushes = Pushes(cfg.push, n, self.dt, self.generator,
-                             body_ids={b: self.model.body(b).id for b in pushed_bodies})
+                             body_ids={b: self.model.body(b).id for b in pushed_bodies},
+                             robot_mass=float(self.model.body_mass.sum()))
         self.observations = ObservationBuffers(n, self.num_actions, cfg.history_length, cfg.amp_window,
                                                cfg.use_command, cfg.observation_noise, self.generator)
         self.actions = torch.zeros(n, self.num_actions, device=dev)
@@ -163,8 +164,9 @@ class G1Env(VecEnv):
     # ---------------------------------------------------------------- observations
     def privileged_parts(self) -> list[tuple[str, torch.Tensor]]:
         """The critic's extra state by quantity: base velocity and height, foot contacts, the push and the deviation
-        from it (with ``critic_push_timing`` the push's timing, with ``critic_command_state`` the state the task's
-        holds read). Names say how the left-right mirror acts on each (envs/g1/symmetry.py)."""
+        from it (with ``critic_push_timing`` the push's timing, with ``critic_push_size`` its size, with
+        ``critic_command_state`` the state the task's holds read). Names say how the left-right mirror acts on each
+        (envs/g1/symmetry.py)."""
         active = self.pushes.active.float().unsqueeze(-1)
         parts = [
             ("base_lin_vel", self.robot.base_lin_vel),
@@ -180,6 +182,8 @@ class G1Env(VecEnv):
             offset = rotate(self.command.path.error(self.robot.base_pos[:, :2]), -self.robot.yaw)
             parts += [("path_error_xy", offset), ("heading_error", self.command.heading_error.unsqueeze(-1)),
                       ("velocity_average", self.command.velocity_average)]
+        if self.cfg.critic_push_size:  # last: pchc-train --init-from widens a critic at the end of its input
+            parts.append(("push_size", self.pushes.size.unsqueeze(-1) * active))
         return parts
 
     def privileged_state(self) -> torch.Tensor:

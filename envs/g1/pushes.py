@@ -50,9 +50,10 @@ class Pushes:
     reference and deviations after it."""
 
     def __init__(self, cfg: PushConfig, num_envs: int, dt: float, generator: torch.Generator,
-                 body_ids: dict[str, int] | None = None) -> None:
-        """``body_ids``: body name -> MuJoCo body id, for force pushes."""
-        self.cfg, self.dt, self.generator = cfg, dt, generator
+                 body_ids: dict[str, int] | None = None, robot_mass: float = 1.0) -> None:
+        """``body_ids``: body name -> MuJoCo body id, for force pushes; ``robot_mass`` (kg): the whole robot's, to
+        express a force push's impulse as the velocity it gives the robot (``size``)."""
+        self.cfg, self.dt, self.generator, self.robot_mass = cfg, dt, generator, robot_mass
         n, self.device = num_envs, generator.device
         self.forces_on = cfg.enabled and cfg.force.share > 0
         """Whether pushes can be forces (a setting, so no step waits on the device to find out)."""
@@ -72,6 +73,9 @@ class Pushes:
         self.window = torch.zeros(n, dtype=torch.long, device=self.device)
         """Policy steps left in the after-disturb window."""
         self.direction = torch.zeros(n, 2, device=self.device)
+        self.size = torch.zeros(n, device=self.device)
+        """[N] the last push's size as the horizontal velocity it gives the whole robot, m/s: a kick's speed, a force's
+        horizontal part x its duration / the robot's mass."""
         self.origin = torch.zeros(n, 2, device=self.device)
         self.com_origin = torch.zeros(n, 2, device=self.device)
         self.origin_height = torch.zeros(n, device=self.device)
@@ -144,14 +148,15 @@ class Pushes:
         angle = torch.where(self.next_angle.isnan(), self._uniform(n, 0.0, 2 * math.pi), self.next_angle)
         speed = torch.where(self.next_speed.isnan(), self._uniform(n, *self.cfg.velocity), self.next_speed)
         direction = torch.stack([angle.cos(), angle.sin()], -1)
-        kicked = due
+        kicked, size = due, speed
         if physics.body_forces is not None:  # physics that takes body forces (every G1 env's)
-            kicked = due & ~self._start_forces(due, direction)
+            forced, force_size = self._start_forces(due, direction)
+            kicked, size = due & ~forced, torch.where(forced, force_size, speed)
         kick = torch.where(kicked, speed, 0.0).unsqueeze(-1) * direction
         physics.qvel[:, :2] += kick.to(physics.qvel.dtype)  # the free joint's world-frame linear velocity
         yaw = yaw_of(robot.base_quat)
         pushed = {
-            "next_speed": math.nan, "next_angle": math.nan, "direction": direction, "origin": robot.base_pos[:, :2],
+            "next_speed": math.nan, "next_angle": math.nan, "direction": direction, "size": size, "origin": robot.base_pos[:, :2],
             "com_origin": robot.com_pos[:, :2], "origin_height": robot.base_pos[:, 2], "ref_yaw": yaw,
             "ref_offset": 0.0, "ref_vel": rotate(commands[:, :2], yaw), "max_deviation": 0.0,
             "max_com_deviation": 0.0, "window": self.window_steps,
@@ -162,10 +167,10 @@ class Pushes:
             mask = due.view(-1, *([1] * (current.dim() - 1)))
             current.copy_(torch.where(mask, value, current))  # a Python number stays on the host side
 
-    def _start_forces(self, due: torch.Tensor, direction: torch.Tensor) -> torch.Tensor:
+    def _start_forces(self, due: torch.Tensor, direction: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """Where ``due``, start force pushes: drawn by their share (from the config) or requested (a requested kick
-        stays a kick); returns [N] bool, which of the due pushes are forces. ``direction`` [N, 2]: the horizontal
-        direction of each push."""
+        stays a kick); returns [N] bool, which of the due pushes are forces, and [N] their size (m/s, see ``size``).
+        ``direction`` [N, 2]: the horizontal direction of each push."""
         n, force_cfg = len(due), self.cfg.force
         requested = self.next_body >= 0
         kick_requested = ~self.next_speed.isnan()
@@ -188,7 +193,7 @@ class Pushes:
         self.force = torch.where(starts.unsqueeze(-1), force, self.force)
         self.force_body = torch.where(starts, body, self.force_body)
         self.force_left_s = torch.where(starts, duration, self.force_left_s)
-        return forced
+        return forced, (magnitude * horizontal * duration / self.robot_mass).nan_to_num(0.0)
 
     def add_forces(self, physics) -> None:
         """Add each env's ongoing force push to the physics' body forces for this step (after the task set its own):

@@ -36,6 +36,7 @@ QUANTITY_MIRROR = {
     "push_direction_xy": [1.0, -1.0],
     "push_deviation_xy": [1.0, -1.0],
     "push_timing": None,
+    "push_size": None,
     "path_error_xy": [1.0, -1.0],  # base heading frame
     "heading_error": [-1.0],
     "velocity_average": _COMMAND,  # (forward, sideways, yaw rate) as the command
