@@ -54,6 +54,10 @@ class AMPConfig:
     """Policy windows the discriminator replays (the newest ones)."""
     exclude_reference_beyond: dict[str, float] = field(default_factory=dict)
     """Joint -> bound (rad): clip frames with that joint further from zero are left out of the reference."""
+    root_velocity: bool | None = None
+    """Each frame also holds the root's velocity in its heading frame (forward, sideways, yaw rate), so that the
+    discriminator tells walking from stepping in place; None: as the env's amp observation has it (the G1 env:
+    ``env.amp_root_velocity``)."""
 
 
 @dataclass

@@ -129,6 +129,50 @@ def test_missing_npz_key(tmp_path):
         load_motion(path, ["a"], 50)
 
 
+def root_pose_clip(frames: int, position, yaw) -> np.ndarray:
+    """[frames, 36] a LAFAN1 G1 CSV whose root is at ``position(t)`` [T, 2] with heading ``yaw(t)`` (t in s, 30 fps),
+    standing 0.75 m high; joints at zero."""
+    t = np.arange(frames) / 30.0
+    data = np.zeros((frames, 36))
+    data[:, :2], data[:, 2] = position(t), 0.75
+    half = yaw(t) / 2
+    data[:, 5], data[:, 6] = np.sin(half), np.cos(half)  # quaternion xyzw about z
+    return data
+
+
+@pytest.mark.parametrize("case", ["forward", "sideways", "turning in place"])
+def test_root_velocity_is_the_roots_velocity_in_its_heading_frame(tmp_path, case):
+    """Walking 0.8 m/s along a heading of 2.5 rad (forward 0.8), stepping 0.3 m/s to the left of a heading of -2 rad
+    (sideways 0.3), turning in place at 1.2 rad/s across the +-pi seam (yaw rate 1.2); read at 50 fps from 30."""
+    if case == "forward":
+        position, yaw, expected = (lambda t: np.outer(t, [0.8 * np.cos(2.5), 0.8 * np.sin(2.5)]),
+                                   lambda t: np.full_like(t, 2.5), [0.8, 0.0, 0.0])
+    elif case == "sideways":
+        left = -2.0 + np.pi / 2
+        position, yaw, expected = (lambda t: np.outer(t, [0.3 * np.cos(left), 0.3 * np.sin(left)]),
+                                   lambda t: np.full_like(t, -2.0), [0.0, 0.3, 0.0])
+    else:
+        position, yaw, expected = (lambda t: np.zeros((len(t), 2)), lambda t: 2.8 + 1.2 * t, [0.0, 0.0, 1.2])
+    path = write_csv(tmp_path / "root.csv", root_pose_clip(61, position, yaw))
+    clip = load_motion(path, ["left_knee_joint"], fps_out=50, with_root_velocity=True)
+    assert clip.shape == (101, 4)
+    np.testing.assert_allclose(clip[:, 1:].numpy(), np.tile(expected, (101, 1)), atol=1e-4)
+    assert (clip[:, 0] == 0).all()
+
+
+def test_root_velocity_needs_the_clips_root(tmp_path):
+    path = write_npz(tmp_path / "no_root.npz", fps=np.array(50.0), dof_names=np.array(["left_knee_joint"]),
+                     dof_positions=np.zeros((10, 1)))
+    assert load_motion(path, ["left_knee_joint"], fps_out=50).shape == (10, 1)
+    with pytest.raises(ValueError, match=r"no_root.npz: the root velocity needs the clip's finite root pose"):
+        load_motion(path, ["left_knee_joint"], fps_out=50, with_root_velocity=True)
+    rooted = write_npz(tmp_path / "rooted.npz", fps=np.array(50.0), dof_names=np.array(["left_knee_joint"]),
+                       dof_positions=np.zeros((10, 1)), root_positions=np.outer(np.arange(10) / 50, [0.5, 0, 0]),
+                       root_quaternions=np.tile([0.0, 0.0, 0.0, 1.0], (10, 1)))
+    np.testing.assert_allclose(load_motion(rooted, ["left_knee_joint"], fps_out=50, with_root_velocity=True)[:, 1],
+                               0.5, atol=1e-5)
+
+
 def test_load_motions_expands_folders_sorted_and_mixes_with_files(tmp_path):
     folder = tmp_path / "clips"
     folder.mkdir()

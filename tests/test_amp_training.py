@@ -17,7 +17,9 @@ def write_clip(path, joints, frames=120, fps=30):
     positions = 0.3 * np.sin(2 * np.pi * 1.0 * t[:, None] + np.arange(len(joints))[None, :])
     positions += np.array([0.5 if "knee" in j else 0.0 for j in joints])
     positions *= np.array([0.6 if "ankle_roll" in j else 1.0 for j in joints])
-    np.savez(path, fps=fps, dof_names=np.array(joints), dof_positions=positions)
+    root = {"root_positions": np.outer(t, [0.5, 0.0, 0.0]) + [0.0, 0.0, 0.75],  # walking 0.5 m/s along x
+            "root_quaternions": np.tile([0.0, 0.0, 0.0, 1.0], (frames, 1))}
+    np.savez(path, fps=fps, dof_names=np.array(joints), dof_positions=positions, **root)
 
 
 def test_style_reward_joins_the_task_group_and_the_checkpoint(tmp_path, capsys):
@@ -132,3 +134,20 @@ def test_init_from_with_a_fresh_discriminator_keeps_the_policy_and_not_the_discr
         assert same(at_start["actor"], saved["actor_state_dict"])
     with pytest.raises(SystemExit, match="--fresh-discriminator applies to --init-from"):
         train.main([*common, "--log-dir", str(tmp_path / "d"), "--fresh-discriminator"])
+
+
+def test_a_discriminator_of_another_input_width_asks_for_a_fresh_one(tmp_path):
+    """A checkpoint whose discriminator read joint angles only, continued with the root velocity in the amp frames:
+    one line naming --fresh-discriminator; with it the run trains."""
+    from pchc_rsl.cli import train
+
+    write_clip(tmp_path / "clip.npz", WALK_JOINTS)
+    common = ["--task", "g1-walk-fast", "--num-envs", "2", "--max-iterations", "1",
+              "--motion-files", str(tmp_path / "clip.npz"), "runner.num_steps_per_env=4"]
+    train.main([*common, "--log-dir", str(tmp_path / "a")])
+    source = str(tmp_path / "a" / "model_0.pt")
+    wider = [*common, "env.amp_root_velocity=true", "--init-from", source]
+    with pytest.raises(SystemExit, match=r"reads 100 AMP inputs, this run's 115 .* --fresh-discriminator"):
+        train.main([*wider, "--log-dir", str(tmp_path / "b")])
+    train.main([*wider, "--log-dir", str(tmp_path / "c"), "--fresh-discriminator"])
+    assert (tmp_path / "c" / "model_0.pt").exists()

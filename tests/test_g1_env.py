@@ -442,6 +442,36 @@ def test_critic_push_size_adds_the_kicks_speed_inside_its_window_and_zero_after(
     assert (env.get_observations()["critic"][:, -1] == 0).all()
 
 
+def test_amp_root_velocity_is_the_bases_change_over_the_step_in_its_heading_frame():
+    """Each amp frame ends with the base's velocity (forward, sideways, yaw rate) over the last step, in its heading
+    at the step's end: computed here from the base poses before and after a step (a kick of 1 m/s at 0.5 rad from
+    the heading, so both parts are positive); the style reward is built for that width."""
+    import math
+
+    from pchc_rsl.algorithms import MultiCriticPPO
+
+    plain = make_walk_env(num_envs=2)
+    env = make_walk_env(num_envs=2, amp_root_velocity=True)
+    joints = env.num_actions
+    assert env.get_observations()["amp"].shape[-1] == plain.get_observations()["amp"].shape[-1] + 5 * 3
+    env.step(torch.zeros(2, joints))
+    before = env.robot.base_pos[:, :2].clone(), env.robot.yaw.clone()
+    env.pushes.request(0, speed=1.0, angle=float(env.robot.yaw[0]) + 0.5)
+    env.pushes.request(1, speed=1.0, angle=float(env.robot.yaw[1]) + 0.5)
+    obs, *_ = env.step(torch.zeros(2, joints))
+    moved, yaw = env.robot.base_pos[:, :2] - before[0], env.robot.yaw
+    for i in range(2):
+        c, s_ = math.cos(yaw[i]), math.sin(yaw[i])
+        turn = math.remainder(float(yaw[i] - before[1][i]), 2 * math.pi)
+        expected = torch.tensor([c * moved[i, 0] + s_ * moved[i, 1], -s_ * moved[i, 0] + c * moved[i, 1], turn])
+        torch.testing.assert_close(obs["amp"][i, -3:], expected / env.dt, atol=1e-4, rtol=1e-4)
+        torch.testing.assert_close(obs["amp"][i, -3 - joints:-3], env.robot.joint_pos[i])
+    assert (obs["amp"][:, -3:-1] > 0.3).all()  # the kick: forward and to the left
+    resolved = MultiCriticPPO.resolve_amp_config({"motion_files": ["clip.csv"], "joint_names": list(env.cfg.joints)},
+                                                 obs, env)
+    assert resolved["root_velocity"] is True and resolved["input_dim"] == 5 * (joints + 3)
+
+
 def test_critic_command_state_adds_the_path_offset_in_the_heading_frame_the_heading_error_and_the_average():
     """A robot facing +y (yaw pi/2) standing 0.3 m along x and 0.1 m along y from its path's point: in its heading
     frame the offset is 0.1 m ahead and 0.3 m to its right, (0.1, -0.3)."""

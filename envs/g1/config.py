@@ -103,6 +103,11 @@ class G1EnvConfig:
     history_length: int = 5
     amp_window: int = 5
     """Frames of actuated joint positions in the ``amp`` observation group (the AMP state window)."""
+    amp_root_velocity: bool = False
+    """Each amp frame also holds the base's velocity in its heading frame (forward, sideways, yaw rate), read as the
+    change over the step, as the clips' is over a frame (pchc_rsl.amp.motion.root_velocity). Joint angles alone pay
+    stepping in place as they pay walking (docs/design.md, "A style reward that pulls"). Changes the discriminator's
+    input: a run started from a checkpoint without it needs ``--fresh-discriminator``."""
     observation_noise: float = 1.0
     """Multiplies the per-quantity noise scales (0 turns noise off)."""
     command_ranges: dict[str, tuple[float, float]] = field(

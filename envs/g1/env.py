@@ -87,7 +87,8 @@ class G1Env(VecEnv):
                              body_ids={b: self.model.body(b).id for b in pushed_bodies},
                              robot_mass=float(self.model.body_mass.sum()))
         self.observations = ObservationBuffers(n, self.num_actions, cfg.history_length, cfg.amp_window,
-                                               cfg.use_command, cfg.observation_noise, self.generator)
+                                               cfg.use_command, cfg.observation_noise, self.generator,
+                                               amp_root_velocity=cfg.amp_root_velocity, dt=self.dt)
         self.actions = torch.zeros(n, self.num_actions, device=dev)
         self.last_actions = torch.zeros(n, self.num_actions, device=dev)
         self.joint_targets = torch.zeros(n, self.num_actions, device=dev)
@@ -276,6 +277,11 @@ class G1Env(VecEnv):
         raises PhysicsOverflow when a buffer overflowed); empty for C MuJoCo, which grows its buffers itself."""
         report = getattr(self.physics, "overflow_report", None)
         return report() if report is not None else {}
+
+    @property
+    def amp_root_velocity(self) -> bool:
+        """Whether the amp frames hold the base's velocity after the joints (MultiCriticPPO.resolve_amp_config)."""
+        return self.cfg.amp_root_velocity
 
     def joint_ranges(self, names: list[str]) -> list[tuple[float, float]]:
         """The model's range (rad) of each named joint: what a motion clip for this robot must stay within."""

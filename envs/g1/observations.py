@@ -6,6 +6,9 @@ from __future__ import annotations
 import torch
 from tensordict import TensorDict
 
+from pchc_rsl.amp.motion import ROOT_VELOCITY_SIZE
+from pchc_rsl.envs.g1.commanded_path import rotate
+
 NOISE_SCALES = {"ang_vel": 0.2, "gravity": 0.05, "joint_pos": 0.01, "joint_vel": 1.5}
 """Half-widths of the uniform observation noise per quantity, multiplied by ``observation_noise``."""
 
@@ -19,19 +22,31 @@ def frame_layout(num_joints: int, use_command: bool) -> list[tuple[str, int]]:
     return layout
 
 
+def amp_frame_layout(num_joints: int, root_velocity: bool) -> list[tuple[str, int]]:
+    """The quantities of one AMP frame in order (the mirror reads it): the actuated joint positions, and with
+    ``root_velocity`` the base's velocity in its heading frame (pchc_rsl.amp.motion.root_velocity)."""
+    return [("joint_pos", num_joints)] + ([("amp_root_velocity", ROOT_VELOCITY_SIZE)] if root_velocity else [])
+
+
 class ObservationBuffers:
     """Frame histories, newest first: s_t = [angular velocity, gravity in base frame, q - q_default, dq, a_{t-1},
-    eta (, command)]; the AMP window holds the actuated joint positions, oldest first."""
+    eta (, command)]; the AMP window holds the actuated joint positions (and the base's velocity), oldest first."""
 
     def __init__(self, num_envs: int, num_joints: int, history_length: int, amp_window: int, use_command: bool,
-                 noise: float, generator: torch.Generator) -> None:
+                 noise: float, generator: torch.Generator, amp_root_velocity: bool = False, dt: float = 0.02) -> None:
         self.use_command, self.noise, self.generator = use_command, noise, generator
         self.frame_layout = frame_layout(num_joints, use_command)
+        self.amp_frame_layout = amp_frame_layout(num_joints, amp_root_velocity)
+        self.amp_root_velocity, self.dt = amp_root_velocity, dt
         frame_dim = sum(size for _, size in self.frame_layout)
         device = generator.device
         self.policy = torch.zeros(num_envs, history_length + 1, frame_dim, device=device)
         self.critic = torch.zeros(num_envs, history_length + 1, frame_dim, device=device)
-        self.amp = torch.zeros(num_envs, amp_window, num_joints, device=device)
+        amp_dim = sum(size for _, size in self.amp_frame_layout)
+        self.amp = torch.zeros(num_envs, amp_window, amp_dim, device=device)
+        self.amp_last_planar = torch.zeros(num_envs, 3, device=device)
+        """[N, 3] the base's x, y (world) and yaw at the last AMP frame: its velocity is the change over a step, as
+        a clip's is over a frame."""
 
     def frame(self, env, noise: bool = False) -> torch.Tensor:
         """[N, frame_dim] of the current state; with ``noise``, uniform noise on the measured quantities."""
@@ -57,7 +72,11 @@ class ObservationBuffers:
         frame = self.frame(env)[env_ids].unsqueeze(1)
         self.policy[env_ids] = frame
         self.critic[env_ids] = frame
-        self.amp[env_ids] = env.robot.joint_pos[env_ids].unsqueeze(1)
+        self.amp_last_planar[env_ids] = self._planar(env)[env_ids]
+        frame = env.robot.joint_pos[env_ids]
+        if self.amp_root_velocity:
+            frame = torch.cat([frame, torch.zeros(len(frame), ROOT_VELOCITY_SIZE, device=frame.device)], dim=-1)
+        self.amp[env_ids] = frame.unsqueeze(1)
 
     def push(self, env, amp: bool = True) -> None:
         """Shift the histories by one step and add the current frame (noisy for the actor); ``amp=False`` when the
@@ -71,7 +90,23 @@ class ObservationBuffers:
 
     def push_amp(self, env) -> None:
         self.amp[:, :-1] = self.amp[:, 1:].clone()
-        self.amp[:, -1] = env.robot.joint_pos
+        self.amp[:, -1] = self._amp_frame(env)
+
+    @staticmethod
+    def _planar(env) -> torch.Tensor:
+        return torch.cat([env.robot.base_pos[:, :2], env.robot.yaw.unsqueeze(-1)], dim=-1)
+
+    def _amp_frame(self, env) -> torch.Tensor:
+        """[N, amp frame] the joint positions, with the root velocity the base's change since the last frame in
+        its heading now (forward, sideways m/s, yaw rate rad/s)."""
+        if not self.amp_root_velocity:
+            return env.robot.joint_pos
+        planar = self._planar(env)
+        change = planar - self.amp_last_planar
+        change[:, 2] = torch.atan2(change[:, 2].sin(), change[:, 2].cos())  # across the +-pi seam
+        self.amp_last_planar = planar
+        velocity = torch.cat([rotate(change[:, :2], -planar[:, 2]), change[:, 2:]], dim=-1) / self.dt
+        return torch.cat([env.robot.joint_pos, velocity], dim=-1)
 
     def groups(self, env, privileged: torch.Tensor) -> TensorDict:
         """The observation TensorDict: policy, preference, critic ([history, privileged]) and amp."""

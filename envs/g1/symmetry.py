@@ -27,6 +27,7 @@ QUANTITY_MIRROR = {
     "last_action": "joints",
     "action_scale_eta": None,
     "joint_pos": "joints",  # the AMP window
+    "amp_root_velocity": _COMMAND,  # (forward, sideways, yaw rate) as the command
     "velocity_command": _COMMAND,
     # privileged state (G1Env.privileged_parts)
     "base_lin_vel": _POLAR,
@@ -76,7 +77,7 @@ class G1Mirror:
         layouts = {
             "policy": frame * frames,
             "critic": frame * frames + privileged,
-            "amp": [("joint_pos", env.num_actions)] * env.cfg.amp_window,
+            "amp": env.observations.amp_frame_layout * env.cfg.amp_window,
         }
         device = env.device
         self.groups = {}

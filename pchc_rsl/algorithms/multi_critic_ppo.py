@@ -228,6 +228,11 @@ class MultiCriticPPO(PPO):
             load_cfg = {**(load_cfg or defaults), "optimizer": False}
         load_iteration = super().load(loaded_dict, load_cfg, strict)
         if self.amp is not None and "amp_state_dict" in loaded_dict and (load_cfg is None or load_cfg.get("amp", True)):
+            saved_width = loaded_dict["amp_state_dict"]["discriminator"].get("normalizer._mean")
+            width = self.amp.replay.dim
+            if saved_width is not None and saved_width.shape[-1] != width:
+                raise ValueError(f"the checkpoint's discriminator reads {saved_width.shape[-1]} AMP inputs, this run's "
+                                 f"{width} (amp_window, amp_root_velocity): start it with --fresh-discriminator.")
             self.amp.load_state_dict(loaded_dict["amp_state_dict"])
         if self.value_normalizer is not None and "value_normalizer_state_dict" in loaded_dict and (
             load_cfg is None or load_cfg.get("critic", True)
@@ -247,9 +252,9 @@ class MultiCriticPPO(PPO):
     @staticmethod
     def resolve_amp_config(amp_cfg: dict | None, obs: TensorDict, env: VecEnv) -> dict | None:
         """Fill the AMP input width, the motion frame rate (the policy rate) and, from an env that tells them
-        (``joint_ranges(names)``), the robot's joint ranges the clips must respect; None (with a note) without
-        motions. Public so that tools rebuild the style reward exactly as training does
-        (tools/diagnostics/style_score.py)."""
+        (``joint_ranges(names)``, ``amp_root_velocity``), the robot's joint ranges the clips must respect and whether
+        its amp frames hold the root's velocity; None (with a note) without motions. Public so that tools rebuild the
+        style reward exactly as training does (tools/diagnostics/style_score.py)."""
         if not amp_cfg:
             return None
         amp_cfg = dict(amp_cfg)
@@ -266,6 +271,8 @@ class MultiCriticPPO(PPO):
             amp_cfg["fps"] = 1.0 / env.dt
         if "joint_ranges" not in amp_cfg and hasattr(env, "joint_ranges"):
             amp_cfg["joint_ranges"] = env.joint_ranges(amp_cfg["joint_names"])
+        if amp_cfg.get("root_velocity") is None:
+            amp_cfg["root_velocity"] = bool(getattr(env, "amp_root_velocity", False))
         return amp_cfg
 
     @staticmethod

@@ -1,12 +1,14 @@
 """Reference motions for AMP: joint-position clips loaded by joint name and resampled to the control rate.
 
 The discriminator compares windows of the robot's joint positions with windows of these clips, so a clip only has
-to provide joint angles with their names and frame rate. Two formats are read, with numpy only (never mujoco):
+to provide joint angles with their names and frame rate; with ``root_velocity`` each frame also carries the root's
+velocity in its heading frame (forward, sideways, yaw rate), read from the clip's root pose. Two formats are read,
+with numpy only (never mujoco):
 
 - the LAFAN1 G1 retargeting CSV: no header, 30 fps, 36 columns: root position xyz, root quaternion xyzw, then the
   29 joint angles in the order ``G1_CSV_JOINTS``;
-- npz clips with keys ``fps`` (scalar), ``dof_names`` [D] (strings) and ``dof_positions`` [T, D]; other keys are
-  ignored.
+- npz clips with keys ``fps`` (scalar), ``dof_names`` [D] (strings) and ``dof_positions`` [T, D], and for the root
+  velocity ``root_positions`` [T, 3] and ``root_quaternions`` [T, 4] (xyzw); other keys are ignored.
 """
 
 from __future__ import annotations
@@ -39,11 +41,15 @@ CSV_FPS = 30.0
 CSV_ROOT_COLUMNS = 7  # root position xyz, root quaternion xyzw
 CSV_NUM_COLUMNS = CSV_ROOT_COLUMNS + len(G1_CSV_JOINTS)
 NPZ_KEYS = ("fps", "dof_names", "dof_positions")
+NPZ_ROOT_KEYS = ("root_positions", "root_quaternions")
+ROOT_VELOCITY_SIZE = 3
+"""Root velocity columns of a frame: forward and sideways velocity in the heading frame (m/s), yaw rate (rad/s)."""
 MOTION_EXTENSIONS = (".csv", ".npz")
 
 
-def _read_csv(path: Path) -> tuple[float, list[str], np.ndarray]:
-    """(fps, joint names, joint positions [T, 29]) of a LAFAN1 G1 retargeting CSV."""
+def _read_csv(path: Path) -> tuple[float, list[str], np.ndarray, np.ndarray]:
+    """(fps, joint names, joint positions [T, 29], root pose [T, 7]: xyz, quaternion xyzw) of a LAFAN1 G1 retargeting
+    CSV."""
     try:
         data = np.loadtxt(path, delimiter=",", dtype=np.float64, ndmin=2)
     except ValueError as error:  # numpy's text ends with advice about its own arguments (usecols): keep the fact
@@ -59,11 +65,11 @@ def _read_csv(path: Path) -> tuple[float, list[str], np.ndarray]:
             f"{path} has {data.shape[1]} columns; a LAFAN1 G1 CSV needs {CSV_NUM_COLUMNS}: root position xyz (3), "
             f"root quaternion xyzw (4) and {len(G1_CSV_JOINTS)} joint angles."
         )
-    return CSV_FPS, list(G1_CSV_JOINTS), data[:, CSV_ROOT_COLUMNS:]
+    return CSV_FPS, list(G1_CSV_JOINTS), data[:, CSV_ROOT_COLUMNS:], data[:, :CSV_ROOT_COLUMNS]
 
 
-def _read_npz(path: Path) -> tuple[float, list[str], np.ndarray]:
-    """(fps, joint names, joint positions [T, D]) of an npz clip."""
+def _read_npz(path: Path) -> tuple[float, list[str], np.ndarray, np.ndarray | None]:
+    """(fps, joint names, joint positions [T, D], root pose [T, 7] or None) of an npz clip."""
     try:
         return _read_npz_archive(path)
     except (zipfile.BadZipFile, zlib.error, EOFError, OSError) as error:  # truncated, empty, not a zip archive
@@ -74,7 +80,7 @@ def _read_npz(path: Path) -> tuple[float, list[str], np.ndarray]:
         ) from None
 
 
-def _read_npz_archive(path: Path) -> tuple[float, list[str], np.ndarray]:
+def _read_npz_archive(path: Path) -> tuple[float, list[str], np.ndarray, np.ndarray | None]:
     if path.stat().st_size == 0:
         raise EOFError("the file is empty")
     try:
@@ -95,6 +101,10 @@ def _read_npz_archive(path: Path) -> tuple[float, list[str], np.ndarray]:
             raise ValueError(
                 f"{path}: cannot read {list(NPZ_KEYS)} without pickle ({error}); store dof_names as a string array."
             ) from error
+        root = None
+        if all(key in data.files for key in NPZ_ROOT_KEYS):
+            root = np.concatenate([np.asarray(data[key], dtype=np.float64).reshape(len(positions), -1)
+                                   for key in NPZ_ROOT_KEYS], axis=1)
     if fps_array.size != 1:
         raise ValueError(f"{path}: 'fps' must be a scalar, got shape {list(fps_array.shape)}.")
     fps = float(fps_array.reshape(()))
@@ -105,7 +115,9 @@ def _read_npz_archive(path: Path) -> tuple[float, list[str], np.ndarray]:
             f"{path}: 'dof_positions' must be [T, {len(names)}] (one column per dof_names entry), "
             f"got shape {list(positions.shape)}."
         )
-    return fps, names, positions
+    if root is not None and root.shape[1] != 7:
+        raise ValueError(f"{path}: 'root_positions' must be [T, 3] and 'root_quaternions' [T, 4] (xyzw).")
+    return fps, names, positions, root
 
 
 def resample(positions: np.ndarray, fps_in: float, fps_out: float) -> np.ndarray:
@@ -123,25 +135,43 @@ def resample(positions: np.ndarray, fps_in: float, fps_out: float) -> np.ndarray
     return (1.0 - frac) * positions[lower] + frac * positions[upper]
 
 
+def root_velocity(root: np.ndarray, fps_in: float, fps_out: float) -> np.ndarray:
+    """[T', 3] the root's velocity in its heading frame at ``fps_out`` (forward, sideways m/s, yaw rate rad/s), from
+    its pose [T, 7] (position xyz, quaternion xyzw) at ``fps_in``: position and unwrapped yaw resampled as the joints
+    are, then differenced over each frame and turned into the heading at its end, as the env reads its own base
+    (envs/g1/observations.py). The first frame repeats the second's."""
+    x, y, z, w = root[:, 3], root[:, 4], root[:, 5], root[:, 6]
+    yaw = np.unwrap(np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z)))
+    planar = resample(np.column_stack([root[:, :2], yaw]), fps_in, fps_out)
+    change = np.diff(planar, axis=0) * fps_out  # [T' - 1, 3]: world-frame velocity xy, yaw rate
+    heading = planar[1:, 2]
+    cos, sin = np.cos(heading), np.sin(heading)
+    local = np.column_stack([cos * change[:, 0] + sin * change[:, 1], -sin * change[:, 0] + cos * change[:, 1],
+                             change[:, 2]])
+    return np.concatenate([local[:1], local], axis=0)
+
+
 def load_motion(
     path: str | os.PathLike, joint_names: Sequence[str], fps_out: float, min_frames: int = 5,
     joint_ranges: Sequence[tuple[float, float]] | None = None, range_tolerance: float = 0.05,
+    with_root_velocity: bool = False,
 ) -> torch.Tensor:
     """Joint positions of ``joint_names`` (in that order) resampled to ``fps_out``. Returns float32 [T, J].
 
     ``min_frames`` is the shortest clip accepted after resampling (at least one discriminator window).
     ``joint_ranges`` ([J] (low, high), rad, the robot's): a frame more than ``range_tolerance`` outside its joint's
     range is refused, naming the file and the joint: the robot cannot take that pose, so the discriminator would
-    learn a style no policy can reach.
+    learn a style no policy can reach. ``with_root_velocity``: each frame also holds the root's velocity
+    (``root_velocity``; [T, J + 3]), for a discriminator that tells walking from stepping in place.
     """
     path = Path(path)
     if not math.isfinite(fps_out) or fps_out <= 0:
         raise ValueError(f"fps_out must be a positive number of frames per second, got {fps_out}.")
     suffix = path.suffix.lower()
     if suffix == ".csv":
-        fps_in, names, positions = _read_csv(path)
+        fps_in, names, positions, root = _read_csv(path)
     elif suffix == ".npz":
-        fps_in, names, positions = _read_npz(path)
+        fps_in, names, positions, root = _read_npz(path)
     else:
         raise ValueError(
             f"Unsupported motion file extension '{path.suffix}' ({path}); allowed: .csv (LAFAN1 G1 retargeting, "
@@ -180,6 +210,11 @@ def load_motion(
             )
 
     resampled = resample(selected, fps_in, fps_out)
+    if with_root_velocity:
+        if root is None or not np.isfinite(root).all():
+            raise ValueError(f"{path}: the root velocity needs the clip's finite root pose (an npz clip: keys "
+                             f"{list(NPZ_ROOT_KEYS)}); this clip has none, or non-finite values.")
+        resampled = np.concatenate([resampled, root_velocity(root, fps_in, fps_out)], axis=1)
     if resampled.shape[0] < min_frames:
         raise ValueError(
             f"{path}: {positions.shape[0]} frames at {fps_in:g} fps give {resampled.shape[0]} frames at "
@@ -214,9 +249,12 @@ def load_motions(
     fps_out: float,
     min_frames: int = 5,
     joint_ranges: Sequence[tuple[float, float]] | None = None,
+    with_root_velocity: bool = False,
 ) -> list[torch.Tensor]:
-    """Load every clip named by ``paths`` (files and/or folders) with load_motion. Returns a list of [T_i, J]."""
-    return [load_motion(f, joint_names, fps_out, min_frames, joint_ranges) for f in find_motion_files(paths)]
+    """Load every clip named by ``paths`` (files and/or folders) with load_motion. Returns a list of [T_i, J]
+    ([T_i, J + 3] ``with_root_velocity``)."""
+    return [load_motion(f, joint_names, fps_out, min_frames, joint_ranges, with_root_velocity=with_root_velocity)
+            for f in find_motion_files(paths)]
 
 
 def kept_frames(clip: torch.Tensor, joint_names: Sequence[str], exclude_beyond: dict[str, float]) -> torch.Tensor:

@@ -1,7 +1,7 @@
 """AMPStyle: everything MultiCriticPPO needs for the AMP style reward, built from one config dict.
 
 Reference windows come from motion files; policy windows from the env's ``amp`` observation group (a window of
-the actuated joint positions, oldest frame first). The style reward c * max(0, 1 - (D - 1)^2 / 4) is added to the
+the actuated joint positions, oldest frame first, each frame optionally followed by the root's velocity). The style reward c * max(0, 1 - (D - 1)^2 / 4) is added to the
 task group, the discriminator is trained after each PPO update on replayed policy windows with its own optimiser.
 """
 
@@ -10,7 +10,7 @@ from __future__ import annotations
 import torch
 
 from pchc_rsl.amp.discriminator import AMPDiscriminator, ReplayBuffer
-from pchc_rsl.amp.motion import MotionWindows, kept_frames, load_motions
+from pchc_rsl.amp.motion import ROOT_VELOCITY_SIZE, MotionWindows, kept_frames, load_motions
 
 
 class AMPStyle:
@@ -32,17 +32,23 @@ class AMPStyle:
         exclude_reference_beyond: dict[str, float] | None = None,
         joint_ranges: list[tuple[float, float]] | None = None,
         penalty_on: str = "reference",
+        root_velocity: bool = False,
         device: str = "cpu",
     ) -> None:
         """``exclude_reference_beyond``: joint -> bound (rad) past which a clip's frame is left out of the reference
         (motion.kept_frames); ``joint_ranges``: the robot's range of each AMP joint, which every clip frame must
-        respect (motion.load_motion)."""
-        if input_dim != window * len(joint_names):
+        respect (motion.load_motion); ``root_velocity``: each frame also holds the root's velocity in its heading
+        frame (motion.root_velocity), after the joints."""
+        frame = len(joint_names) + (ROOT_VELOCITY_SIZE if root_velocity else 0)
+        if input_dim != window * frame:
+            extra = f" + {ROOT_VELOCITY_SIZE} root velocity columns" if root_velocity else ""
             raise ValueError(
                 f"The '{obs_group}' observation has {input_dim} columns; AMP expects window {window} x "
-                f"{len(joint_names)} joints = {window * len(joint_names)}."
+                f"({len(joint_names)} joints{extra}) = {window * frame} (amp_cfg.window, amp_cfg.root_velocity; "
+                "the G1 env: env.amp_window, env.amp_root_velocity)."
             )
-        clips = load_motions(motion_files, joint_names, fps, min_frames=window, joint_ranges=joint_ranges)
+        clips = load_motions(motion_files, joint_names, fps, min_frames=window, joint_ranges=joint_ranges,
+                             with_root_velocity=root_velocity)
         keep = [kept_frames(c, joint_names, exclude_reference_beyond) for c in clips] if exclude_reference_beyond \
             else None
         self.reference = MotionWindows(clips, window, device, keep)
