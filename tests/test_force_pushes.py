@@ -46,6 +46,19 @@ def push_a_free_box(physics, magnitude: float, duration_s: float, steps: int = 6
     return physics.qvel[0, :3].double(), pushes.direction[0].double()
 
 
+def push_every_env_once(pushes: Pushes, num_bodies: int) -> SimpleNamespace:
+    """Start a push in every env of ``pushes`` on a stand-in physics (free-joint velocities and body forces of
+    ``num_bodies`` bodies) with the robots at the origin, unturned; returns that physics."""
+    n = len(pushes.countdown)
+    physics = SimpleNamespace(qvel=torch.zeros(n, 6, dtype=torch.float64),
+                              body_forces=torch.zeros(n, num_bodies, 6, dtype=torch.float64))
+    robot = SimpleNamespace(base_pos=torch.zeros(n, 3), base_quat=torch.tensor([[1.0, 0, 0, 0]]).expand(n, 4),
+                            com_pos=torch.zeros(n, 3))
+    pushes.countdown[:] = 1
+    pushes.apply(physics, robot, torch.zeros(n, 3))
+    return physics
+
+
 def free_box_physics(backend: str):
     model = mujoco.MjModel.from_xml_string(FREE_BOX)
     if backend == "warp":
@@ -79,12 +92,7 @@ def test_a_push_size_is_the_speed_it_gives_the_whole_body():
                      force=ForcePushConfig(share=1.0, bodies={"box": 1.0}, magnitude=(100.0, 500.0),
                                            duration_s=(0.05, 0.1)))
     pushes = Pushes(cfg, n, 0.02, torch.Generator().manual_seed(3), body_ids={"box": 1}, robot_mass=2.5)
-    physics = SimpleNamespace(qvel=torch.zeros(n, 6, dtype=torch.float64),
-                              body_forces=torch.zeros(n, 2, 6, dtype=torch.float64))
-    robot = SimpleNamespace(base_pos=torch.zeros(n, 3), base_quat=torch.tensor([[1.0, 0, 0, 0]]).expand(n, 4),
-                            com_pos=torch.zeros(n, 3))
-    pushes.countdown[:] = 1
-    pushes.apply(physics, robot, torch.zeros(n, 3))
+    physics = push_every_env_once(pushes, num_bodies=2)
     forced = pushes.force_left_s > 0
     assert 0 < forced.sum() < n
     kick_speed = physics.qvel[:, :2].norm(dim=-1).float()
@@ -173,12 +181,7 @@ def test_a_push_config_mixes_kicks_and_forces_by_their_shares_and_bodies_by_thei
     cfg = PushConfig(interval_s=(10.0, 10.0), velocity=(1.0, 1.0), velocity_share=3.0,
                      force=ForcePushConfig(share=1.0, bodies={"pelvis": 1.0, "torso_link": 3.0}))
     pushes = Pushes(cfg, n, 0.02, torch.Generator().manual_seed(1), body_ids={"pelvis": 1, "torso_link": 2})
-    physics = SimpleNamespace(qvel=torch.zeros(n, 6, dtype=torch.float64),
-                              body_forces=torch.zeros(n, 3, 6, dtype=torch.float64))
-    robot = SimpleNamespace(base_pos=torch.zeros(n, 3), base_quat=torch.tensor([[1.0, 0, 0, 0]]).expand(n, 4),
-                            com_pos=torch.zeros(n, 3))
-    pushes.countdown[:] = 1
-    pushes.apply(physics, robot, torch.zeros(n, 3))
+    physics = push_every_env_once(pushes, num_bodies=3)
     forced = pushes.force_left_s > 0
     kicked = physics.qvel[:, :2].norm(dim=-1) > 0.5
     assert not (forced & kicked).any() and (forced | kicked).all() and pushes.active.all()
