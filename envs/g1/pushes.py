@@ -156,9 +156,9 @@ class Pushes:
         physics.qvel[:, :2] += kick.to(physics.qvel.dtype)  # the free joint's world-frame linear velocity
         yaw = yaw_of(robot.base_quat)
         pushed = {
-            "next_speed": math.nan, "next_angle": math.nan, "direction": direction, "size": size, "origin": robot.base_pos[:, :2],
-            "com_origin": robot.com_pos[:, :2], "origin_height": robot.base_pos[:, 2], "ref_yaw": yaw,
-            "ref_offset": 0.0, "ref_vel": rotate(commands[:, :2], yaw), "max_deviation": 0.0,
+            "next_speed": math.nan, "next_angle": math.nan, "direction": direction, "size": size,
+            "origin": robot.base_pos[:, :2], "com_origin": robot.com_pos[:, :2], "origin_height": robot.base_pos[:, 2],
+            "ref_yaw": yaw, "ref_offset": 0.0, "ref_vel": rotate(commands[:, :2], yaw), "max_deviation": 0.0,
             "max_com_deviation": 0.0, "window": self.window_steps,
             "countdown": self._interval(n), "next_force": math.nan, "next_body": -1,
         }

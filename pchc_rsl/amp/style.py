@@ -1,8 +1,9 @@
 """AMPStyle: everything MultiCriticPPO needs for the AMP style reward, built from one config dict.
 
 Reference windows come from motion files; policy windows from the env's ``amp`` observation group (a window of
-the actuated joint positions, oldest frame first, each frame optionally followed by the root's velocity). The style reward c * max(0, 1 - (D - 1)^2 / 4) is added to the
-task group, the discriminator is trained after each PPO update on replayed policy windows with its own optimiser.
+the actuated joint positions, oldest frame first, each frame optionally followed by the root's velocity). The style
+reward c * max(0, 1 - (D - 1)^2 / 4) is added to the task group, the discriminator is trained after each PPO update
+on replayed policy windows with its own optimiser.
 """
 
 from __future__ import annotations
