@@ -192,3 +192,15 @@ def test_a_push_config_mixes_kicks_and_forces_by_their_shares_and_bodies_by_thei
     assert magnitude.min() >= 300.0 and magnitude.max() <= 600.0 and pushes.force[forced][:, 2].abs().max() == 0.0
     pushes.add_forces(physics)
     torch.testing.assert_close(physics.body_forces[:, :, :3].sum(1), pushes.force.double() * forced.unsqueeze(-1))
+
+
+def test_the_push_response_header_says_whether_it_kicks_or_pushes_with_forces():
+    from tool_loader import load_tool
+
+    words = load_tool("diagnostics/push_response").pushes_in_words
+    forces = ForcePushConfig(share=1.0, bodies={"torso_link": 1.0, "pelvis": 1.0}, magnitude=(300.0, 600.0),
+                             duration_s=(0.1, 0.1))
+    assert words(PushConfig(velocity=(2.25, 2.25))) == "kicks of 2.25-2.25 m/s"
+    assert words(PushConfig(velocity_share=0.0, force=forces)) == \
+        "forces of 300-600 N for 0.1-0.1 s on torso_link, pelvis"
+    assert words(PushConfig(velocity=(0.5, 2.0), force=forces)).startswith("kicks of 0.5-2 m/s and forces of 300-600 N")

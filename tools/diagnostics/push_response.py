@@ -45,6 +45,18 @@ def push_response(env, policy, preference) -> dict[str, float]:
     }
 
 
+def pushes_in_words(push) -> str:
+    """The pushes of a PushConfig as a header says them: kicks, forces or both, with their ranges."""
+    kinds = []
+    if push.velocity_share > 0:
+        kinds.append(f"kicks of {push.velocity[0]:g}-{push.velocity[1]:g} m/s")
+    force = push.force
+    if force.share > 0:
+        kinds.append(f"forces of {force.magnitude[0]:g}-{force.magnitude[1]:g} N for {force.duration_s[0]:g}-"
+                     f"{force.duration_s[1]:g} s on {', '.join(force.bodies)}")
+    return " and ".join(kinds)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("checkpoint")
@@ -58,7 +70,7 @@ def main() -> None:
 
     _, env, policy = load_policy(args.checkpoint, args.num_envs, args.seed, None, None, args.overrides)
     push = env.cfg.push
-    print(f"{args.checkpoint}, {args.num_envs} episodes per preference, pushes of {push.velocity[0]:g} m/s, "
+    print(f"{args.checkpoint}, {args.num_envs} episodes per preference, {pushes_in_words(push)}, "
           f"window {push.window_s:g} s {args.overrides or ''}")
     print("| Preference | Windows | Touchdowns /s | Median step (m) | COM displacement (m) |")
     print("|---|---|---|---|---|")
