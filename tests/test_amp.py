@@ -535,3 +535,12 @@ def test_a_loaded_discriminator_trains_at_the_learning_rate_it_is_given(tmp_path
         moves[learning_rate] = max((p - b).abs().max().item()
                                    for p, b in zip(loaded.discriminator.parameters(), before))
     assert moves[1e-4] / moves[1e-5] == pytest.approx(10.0, rel=0.05)
+
+
+def test_amp_slope_moves_the_joint_columns_of_every_frame_and_never_the_root_velocity():
+    from tool_loader import load_tool
+
+    columns = load_tool("studies/amp_slope").sagittal_leg_columns
+    names = ["left_hip_pitch_joint", "left_hip_roll_joint", "left_knee_joint"]
+    assert columns(names, 2).tolist() == [True, False, True] * 2
+    assert columns(names, 2, extra=3).tolist() == [True, False, True, False, False, False] * 2

@@ -65,10 +65,11 @@ def read_along_the_way(style: AMPStyle, held: torch.Tensor, reference: torch.Ten
         return {"shares": shares, "d_policy": float(d(held).median()), "d_reference": float(d(reference).median())}
 
 
-def sagittal_leg_columns(joint_names: list[str], window: int) -> torch.Tensor:
-    """[window * joints] bool: the hip pitch, knee and ankle pitch columns of every frame (the crouch)."""
-    legs = torch.tensor([any(k in j for k in ("hip_pitch", "knee", "ankle_pitch")) for j in joint_names])
-    return legs.repeat(window)
+def sagittal_leg_columns(joint_names: list[str], window: int, extra: int = 0) -> torch.Tensor:
+    """[window * (joints + extra)] bool: the hip pitch, knee and ankle pitch columns of every frame (the crouch);
+    ``extra``: columns after the joints in each frame (the root velocity), not moved."""
+    legs = [any(k in j for k in ("hip_pitch", "knee", "ankle_pitch")) for j in joint_names]
+    return torch.tensor(legs + [False] * extra).repeat(window)
 
 
 def main() -> None:
@@ -91,8 +92,10 @@ def main() -> None:
     train, held = walked_windows(env, policy, resolved.get("obs_group", "amp"), args.num_envs)
     print(f"{args.checkpoint}: {len(train)} training and {len(held)} held-out policy windows; {args.updates} updates "
           f"per setting (batch {resolved.get('batch_size', 512)}); style reward as a share of its weight c")
-    paths = {"every joint": torch.ones(train.shape[1], dtype=torch.bool),
-             "sagittal leg joints": sagittal_leg_columns(resolved["joint_names"], resolved["window"])}
+    extra = train.shape[1] // resolved["window"] - len(resolved["joint_names"])  # the root velocity's columns
+    every_joint = torch.tensor([True] * len(resolved["joint_names"]) + [False] * extra).repeat(resolved["window"])
+    paths = {"every joint": every_joint,
+             "sagittal leg joints": sagittal_leg_columns(resolved["joint_names"], resolved["window"], extra)}
     print("| discriminator | moved | " + " | ".join(f"f = {f:g}" for f in SHARES)
           + " | median D, policy | median D, clips |")
     print("|---|---|" + "---|" * (len(SHARES) + 2))
