@@ -1,7 +1,7 @@
 """Reference motions for AMP: joint-position clips loaded by joint name and resampled to the control rate.
 
 The discriminator compares windows of the robot's joint positions with windows of these clips, so a clip only has
-to provide joint angles with their names and frame rate; with ``root_velocity`` each frame also carries the root's
+to provide joint angles with their names and frame rate; ``with_root_velocity`` each frame also carries the root's
 velocity in its heading frame (forward, sideways, yaw rate), read from the clip's root pose. Two formats are read,
 with numpy only (never mujoco):
 
