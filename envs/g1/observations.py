@@ -44,9 +44,9 @@ class ObservationBuffers:
         self.critic = torch.zeros(num_envs, history_length + 1, frame_dim, device=device)
         amp_dim = sum(size for _, size in self.amp_frame_layout)
         self.amp = torch.zeros(num_envs, amp_window, amp_dim, device=device)
-        self.amp_last_planar = torch.zeros(num_envs, 3, device=device)
-        """[N, 3] the base's x, y (world) and yaw at the last AMP frame: its velocity is the change over a step, as
-        a clip's is over a frame."""
+        self.amp_last_xy = torch.zeros(num_envs, 2, device=device)
+        """[N, 2] the base's x, y (world) at the last AMP frame: its velocity is the change over a step, as a clip's
+        is over a frame."""
 
     def frame(self, env, noise: bool = False) -> torch.Tensor:
         """[N, frame_dim] of the current state; with ``noise``, uniform noise on the measured quantities."""
@@ -72,7 +72,7 @@ class ObservationBuffers:
         frame = self.frame(env)[env_ids].unsqueeze(1)
         self.policy[env_ids] = frame
         self.critic[env_ids] = frame
-        self.amp_last_planar[env_ids] = self._planar(env)[env_ids]
+        self.amp_last_xy[env_ids] = env.robot.base_pos[env_ids, :2]
         frame = env.robot.joint_pos[env_ids]
         if self.amp_root_velocity:
             frame = torch.cat([frame, torch.zeros(len(frame), ROOT_VELOCITY_SIZE, device=frame.device)], dim=-1)
@@ -92,20 +92,15 @@ class ObservationBuffers:
         self.amp[:, :-1] = self.amp[:, 1:].clone()
         self.amp[:, -1] = self._amp_frame(env)
 
-    @staticmethod
-    def _planar(env) -> torch.Tensor:
-        return torch.cat([env.robot.base_pos[:, :2], env.robot.yaw.unsqueeze(-1)], dim=-1)
-
     def _amp_frame(self, env) -> torch.Tensor:
         """[N, amp frame] the joint positions, with the root velocity the base's change since the last frame in
-        its heading now (forward, sideways m/s, yaw rate rad/s)."""
+        its heading now (forward, sideways m/s, yaw rate rad/s: the step's turn, as the commands track it)."""
         if not self.amp_root_velocity:
             return env.robot.joint_pos
-        planar = self._planar(env)
-        change = planar - self.amp_last_planar
-        change[:, 2] = torch.atan2(change[:, 2].sin(), change[:, 2].cos())  # across the +-pi seam
-        self.amp_last_planar = planar
-        velocity = torch.cat([rotate(change[:, :2], -planar[:, 2]), change[:, 2:]], dim=-1) / self.dt
+        xy = env.robot.base_pos[:, :2]
+        moved = rotate(xy - self.amp_last_xy, -env.robot.yaw)
+        self.amp_last_xy = xy.clone()
+        velocity = torch.cat([moved, env.command.turn.unsqueeze(-1)], dim=-1) / self.dt
         return torch.cat([env.robot.joint_pos, velocity], dim=-1)
 
     def groups(self, env, privileged: torch.Tensor) -> TensorDict:
