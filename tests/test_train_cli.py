@@ -92,6 +92,16 @@ def test_overrides_shape_the_networks_and_are_saved(tmp_path, capsys):
         assert "runner.algorithm.gamma=0.9" in config["overrides"]
 
 
+def test_overrides_may_stand_on_both_sides_of_an_option(capsys):
+    train_cli.main(["--task", "toy", "runner.algorithm.gamma=0.9", "--actor", "gated", "runner.actor.hidden_dims=16,8",
+                    "--seed", "5", "--show-config"])
+    shown = capsys.readouterr().out.splitlines()
+    assert "runner.algorithm.gamma = 0.9  (float)" in shown
+    assert "runner.actor.hidden_dims = [16, 8]  (list[int])" in shown
+    assert 'runner.actor.class_name = "pchc_rsl.modules:GatedMoEActor"  (str)' in shown
+    assert "seed = 5  (int)" in shown
+
+
 def test_a_changed_dict_is_listed_by_its_changed_entries_unless_its_keys_changed():
     """Setting one entry lists that entry alone; replacing a dict by one with other keys lists the dict, so the lost
     key shows."""

@@ -84,7 +84,7 @@ def main(argv: list[str] | None = None) -> None:
     if world()[1] != 0:  # torchrun: rank 0 speaks for the run; the others print only errors
         sys.stdout = open(os.devnull, "w")  # noqa: SIM115 - for the life of the process
     argv = sys.argv[1:] if argv is None else list(argv)
-    args = build_parser(_task_help(argv)).parse_args(argv)
+    args = build_parser(_task_help(argv)).parse_intermixed_args(argv)  # KEY=VALUE words may surround the options
     _take_overrides_from_motion_files(args)
 
     try:
