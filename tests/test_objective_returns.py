@@ -1,8 +1,9 @@
-"""tools/diagnostics/objective_returns.py sums each env's first episode's reward groups, whatever the episode
-lengths."""
+"""first_episode_returns (behind tools/diagnostics/objective_returns.py) sums each env's first episode's reward
+groups and counts its steps, whatever the episode lengths."""
 
 import torch
-from tool_loader import load_tool
+
+from pchc_rsl.evaluation.group_returns import first_episode_returns
 
 
 class ScriptedEnv:
@@ -35,8 +36,8 @@ class ScriptedEnv:
 
 
 def test_first_episode_returns_match_a_hand_sum():
-    tool = load_tool("diagnostics/objective_returns")
-    returns, fell = tool.first_episode_returns(ScriptedEnv(), lambda obs: obs, (1.0, 0.0))
+    returns, fell, lengths = first_episode_returns(ScriptedEnv(), lambda obs: obs, (1.0, 0.0))
     # env 0: steps 1-3; env 1: steps 1-2 (its second episode, steps 3-4, is not counted)
     torch.testing.assert_close(returns, torch.tensor([[6.0, 60.0], [3.0, 30.0]]))
     assert fell.tolist() == [True, False]
+    assert lengths.tolist() == [3, 2]

@@ -15,36 +15,9 @@ from __future__ import annotations
 
 import argparse
 
-import torch
-
 from pchc_rsl.evaluation import evaluation_config, loaded_policy, task_config_of
 from pchc_rsl.evaluation import aggregate, evenly_spaced_preferences, format_metric
-
-
-def first_episode_returns(env, policy, preference) -> tuple[torch.Tensor, torch.Tensor]:
-    """[N, groups] each env's first episode's summed reward groups (task first, then the objectives), and [N] bool
-    whether that episode ended in a fall."""
-    shape = (env.num_envs, 1 + env.num_objectives)
-    sums, returns = torch.zeros(shape), torch.zeros(shape)
-    finished = torch.zeros(env.num_envs, dtype=torch.bool)
-    fell = torch.zeros(env.num_envs, dtype=torch.bool)
-    with torch.inference_mode():
-        env.set_preference(preference)
-        env.reset()
-        obs = env.get_observations()
-        while not finished.all():
-            obs, _, dones, extras = env.step(policy(obs))
-            sums += extras["reward_groups"].cpu()
-            ended = dones.cpu().bool()
-            first = ended & ~finished
-            returns[first] = sums[first]
-            done = extras["episode_metrics"]
-            fell_now = torch.zeros_like(ended)
-            fell_now[done["env_ids"].cpu()] = done["fell"].cpu().bool()
-            fell |= first & fell_now
-            finished |= ended
-            sums[ended] = 0.0
-    return returns, fell
+from pchc_rsl.evaluation.group_returns import first_episode_returns
 
 
 def main(argv: list[str] | None = None) -> dict:
@@ -71,7 +44,7 @@ def main(argv: list[str] | None = None) -> dict:
     print("|---|" + "---|" * (len(names) + bool(args.by_outcome)))
     table = {}
     for lam in evenly_spaced_preferences(args.preferences):
-        returns, fell = first_episode_returns(runner.env, policy, lam)
+        returns, fell, _ = first_episode_returns(runner.env, policy, lam)
         for outcome, fallen in outcomes.items():
             rows = returns if fallen is None else returns[fell == fallen]
             summary = aggregate([dict(zip(names, row.tolist())) for row in rows]) if len(rows) else {}

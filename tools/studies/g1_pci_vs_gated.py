@@ -1,0 +1,132 @@
+"""PCI against the matched learned gate on a G1 task, paired by seed: does the G1's shared history encoder keep
+PCI's lambda-routed experts from losing the data they need?
+
+    python tools/studies/g1_pci_vs_gated.py --pci RUN_S1 RUN_S2 ... --gate RUN_S1 RUN_S2 ... --iteration 149 \
+        --json docs/results/g1_pci_vs_gated.json
+
+On MO-Gym tasks PCI's experts are disjoint networks, and its routing sends each end of the simplex to its own
+experts: there it loses to the gate (docs/results/mo_study.md). On the G1 every expert reads a shared history
+encoder. Runs are pchc-train runs of the same task, seed for seed, one with ``--actor pci`` and one with ``--actor
+gated`` and the expert widths that match PCI's parameter count (configs/matched_gate.py). Each run's checkpoint at
+``--iteration`` is evaluated at evenly spaced preferences (the task's evaluation preset, pushes off unless
+``--pushes`` names a preset, ``--num-envs`` first episodes each): the task group's return, each objective's return,
+falls and episode length.
+
+Two measures per run: the task return averaged over the preferences (how far training has got), and the ends'
+share, the mean task return at the two ends over the one at the middle preference (where routing by lambda splits
+the data, the ends learn from fewer samples and lag the middle). Each gets the study's paired log ratio gate / PCI
+with a 95% Student-t interval over the seeds (pchc_rsl.evaluation.statistics.paired_log_ratio).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import re
+
+import numpy as np
+
+from pchc_rsl.evaluation import evaluation_config, evenly_spaced_preferences, loaded_policy, task_config_of
+from pchc_rsl.evaluation.group_returns import first_episode_returns
+from pchc_rsl.evaluation.statistics import paired_log_ratio
+from pchc_rsl.utils.files import write_json
+
+
+def checkpoint_of(run: str, iteration: int) -> str:
+    path = os.path.join(run, f"model_{iteration}.pt")
+    if not os.path.isfile(path):
+        saved = sorted(int(m.group(1)) for f in os.listdir(run) if (m := re.fullmatch(r"model_(\d+)\.pt", f)))
+        raise SystemExit(f"g1_pci_vs_gated: {path} does not exist (saved iterations: {saved})")
+    return path
+
+
+def evaluate_run(checkpoint: str, preferences: int, num_envs: int, pushes: str) -> dict:
+    """Per preference: mean task and objective returns, fall share and episode length in seconds."""
+    config = task_config_of(checkpoint, "g1-", "g1_pci_vs_gated", "a G1 task")
+    cfg = evaluation_config(config, "mild" if pushes == "off" else pushes, num_envs, seed=0)
+    cfg.env.push.enabled = pushes != "off"
+    runner, policy = loaded_policy(checkpoint, cfg)
+    env = runner.env
+    names = ["task", *cfg.env.objective_names]
+    rows = []
+    for lam in evenly_spaced_preferences(preferences):
+        returns, fell, lengths = first_episode_returns(env, policy, lam)
+        row = {"preference": list(lam), "falls": float(fell.float().mean()),
+               "episode_s": float(lengths.float().mean()) * env.dt}
+        row |= {name: float(returns[:, i].mean()) for i, name in enumerate(names)}
+        rows.append(row)
+        print(f"  {checkpoint} ({lam[0]:.2f}, {lam[1]:.2f}): " + ", ".join(
+            f"{k} {v:.3f}" for k, v in row.items() if k != "preference"), flush=True)
+    return {"checkpoint": checkpoint, "per_preference": rows}
+
+
+def run_measures(result: dict) -> dict:
+    """The task return averaged over the preferences, and the ends' share (ends' mean over the middle's)."""
+    task = np.array([row["task"] for row in result["per_preference"]])
+    middle = task[len(task) // 2]
+    return {"mean_task_return": float(task.mean()), "ends_share": float((task[0] + task[-1]) / 2 / middle)}
+
+
+def compare(pci: list[dict], gate: list[dict]) -> dict:
+    """Paired log ratios gate / PCI of each measure (positive measures only; otherwise the mean difference)."""
+    out = {}
+    for measure in ("mean_task_return", "ends_share"):
+        a = [run_measures(r)[measure] for r in gate]
+        b = [run_measures(r)[measure] for r in pci]
+        if min(a + b) > 0:
+            out[measure] = paired_log_ratio(a, b)
+        else:
+            out[measure] = {"n": len(a), "mean_difference": float(np.mean(np.subtract(a, b))), "values_gate": a,
+                            "values_pci": b}
+    return out
+
+
+def markdown(pci: list[dict], gate: list[dict], comparison: dict) -> str:
+    lines = ["| run | preference | task return | " + " | ".join(
+        k for k in pci[0]["per_preference"][0] if k not in ("preference", "task", "falls", "episode_s"))
+        + " | falls | episode (s) |", "|---|---|---|---|---|---|---|"]
+    for label, results in (("PCI", pci), ("gate", gate)):
+        for result in results:
+            for row in result["per_preference"]:
+                objectives = [f"{v:.3f}" for k, v in row.items() if k not in ("preference", "task", "falls",
+                                                                              "episode_s")]
+                lines.append(f"| {label} {result['checkpoint']} | ({row['preference'][0]:.2f}, "
+                             f"{row['preference'][1]:.2f}) | {row['task']:.2f} | " + " | ".join(objectives)
+                             + f" | {100 * row['falls']:.0f}% | {row['episode_s']:.2f} |")
+    lines.append("")
+    for measure, stats in comparison.items():
+        if "ratio" in stats:
+            lines.append(f"- {measure}: gate / PCI {stats['ratio']:.3f} [{stats['ratio_ci95'][0]:.3f}, "
+                         f"{stats['ratio_ci95'][1]:.3f}] (n = {stats['n']}; pairs' ratios "
+                         + ", ".join(f"{np.exp(d):.3f}" for d in stats["log_ratios"]) + ")")
+        else:
+            lines.append(f"- {measure}: gate - PCI {stats['mean_difference']:.3f} (n = {stats['n']})")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> dict:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--pci", nargs="+", required=True, help="PCI run folders, in seed order")
+    parser.add_argument("--gate", nargs="+", required=True, help="the gated runs of the same seeds, in the same order")
+    parser.add_argument("--iteration", type=int, required=True, help="the checkpoint of every run (model_<it>.pt)")
+    parser.add_argument("--preferences", type=int, default=5)
+    parser.add_argument("--num-envs", type=int, default=32, help="first episodes per preference")
+    parser.add_argument("--pushes", default="off", help="off (default), or one of the task's push presets")
+    parser.add_argument("--json", help="write the runs' rows and the intervals here")
+    args = parser.parse_args(argv)
+    if len(args.pci) != len(args.gate):
+        parser.error(f"--pci has {len(args.pci)} runs and --gate {len(args.gate)}: they pair seed by seed")
+    paths = {name: [checkpoint_of(run, args.iteration) for run in getattr(args, name)] for name in ("pci", "gate")}
+    results = {name: [evaluate_run(p, args.preferences, args.num_envs, args.pushes) for p in ckpts]
+               for name, ckpts in paths.items()}
+    comparison = compare(results["pci"], results["gate"])
+    print(markdown(results["pci"], results["gate"], comparison))
+    report = {"settings": vars(args), **results, "measures": {
+        name: [run_measures(r) for r in rs] for name, rs in results.items()}, "gate_over_pci": comparison}
+    if args.json:
+        write_json(args.json, report)
+    return report
+
+
+if __name__ == "__main__":
+    main()
