@@ -12,10 +12,11 @@ gated`` and the expert widths that match PCI's parameter count (configs/matched_
 ``--pushes`` names a preset, ``--num-envs`` first episodes each): the task group's return, each objective's return,
 falls and episode length.
 
-Two measures per run: the task return averaged over the preferences (how far training has got), and the ends'
-share, the mean task return at the two ends over the one at the middle preference (where routing by lambda splits
-the data, the ends learn from fewer samples and lag the middle). Each gets the study's paired log ratio gate / PCI
-with a 95% Student-t interval over the seeds (pchc_rsl.evaluation.statistics.paired_log_ratio).
+Three measures per run: the task return averaged over the preferences (how far training has got), the ends' share,
+the mean task return at the two ends over the one at the middle preference (where routing by lambda splits the data,
+the ends learn from fewer samples and lag the middle), and the training reward (rsl-rl's Train/mean_reward over the
+run's last 10 iterations: sampled actions, sampled preferences, the training pushes). Each gets the study's paired
+log ratio gate / PCI with a 95% Student-t interval over the seeds (pchc_rsl.evaluation.statistics.paired_log_ratio).
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ import numpy as np
 from pchc_rsl.evaluation import evaluation_config, evenly_spaced_preferences, loaded_policy, task_config_of
 from pchc_rsl.evaluation.group_returns import first_episode_returns
 from pchc_rsl.evaluation.statistics import paired_log_ratio
+from pchc_rsl.evaluation.training_plots import read_scalars
 from pchc_rsl.utils.files import write_json
 
 
@@ -57,20 +59,23 @@ def evaluate_run(checkpoint: str, preferences: int, num_envs: int, pushes: str) 
         rows.append(row)
         print(f"  {checkpoint} ({lam[0]:.2f}, {lam[1]:.2f}): " + ", ".join(
             f"{k} {v:.3f}" for k, v in row.items() if k != "preference"), flush=True)
-    return {"checkpoint": checkpoint, "per_preference": rows}
+    _, rewards = read_scalars(os.path.dirname(checkpoint), "Train/mean_reward")
+    return {"checkpoint": checkpoint, "per_preference": rows, "training_reward": float(rewards[-10:].mean())}
 
 
 def run_measures(result: dict) -> dict:
-    """The task return averaged over the preferences, and the ends' share (ends' mean over the middle's)."""
+    """The task return averaged over the preferences, the ends' share (ends' mean over the middle's) and the
+    training reward."""
     task = np.array([row["task"] for row in result["per_preference"]])
     middle = task[len(task) // 2]
-    return {"mean_task_return": float(task.mean()), "ends_share": float((task[0] + task[-1]) / 2 / middle)}
+    return {"mean_task_return": float(task.mean()), "ends_share": float((task[0] + task[-1]) / 2 / middle),
+            "training_reward": result["training_reward"]}
 
 
 def compare(pci: list[dict], gate: list[dict]) -> dict:
     """Paired log ratios gate / PCI of each measure (positive measures only; otherwise the mean difference)."""
     out = {}
-    for measure in ("mean_task_return", "ends_share"):
+    for measure in ("mean_task_return", "ends_share", "training_reward"):
         a = [run_measures(r)[measure] for r in gate]
         b = [run_measures(r)[measure] for r in pci]
         if min(a + b) > 0:
@@ -94,6 +99,10 @@ def markdown(pci: list[dict], gate: list[dict], comparison: dict) -> str:
                              f"{row['preference'][1]:.2f}) | {row['task']:.2f} | " + " | ".join(objectives)
                              + f" | {100 * row['falls']:.0f}% | {row['episode_s']:.2f} |")
     lines.append("")
+    for label, results in (("PCI", pci), ("gate", gate)):
+        for result in results:
+            lines.append(f"- {label} {result['checkpoint']}: " + ", ".join(
+                f"{k} {v:.3f}" for k, v in run_measures(result).items()))
     for measure, stats in comparison.items():
         if "ratio" in stats:
             lines.append(f"- {measure}: gate / PCI {stats['ratio']:.3f} [{stats['ratio_ci95'][0]:.3f}, "
