@@ -12,11 +12,14 @@ gated`` and the expert widths that match PCI's parameter count (configs/matched_
 ``--pushes`` names a preset, ``--num-envs`` first episodes each): the task group's return, each objective's return,
 falls and episode length.
 
-Three measures per run: the task return averaged over the preferences (how far training has got), the ends' share,
+Four measures per run: the task return averaged over the preferences (how far training has got), the ends' share,
 the mean task return at the two ends over the one at the middle preference (where routing by lambda splits the data,
-the ends learn from fewer samples and lag the middle), and the training reward (rsl-rl's Train/mean_reward over the
-run's last 10 iterations: sampled actions, sampled preferences, the training pushes). Each gets the study's paired
-log ratio gate / PCI with a 95% Student-t interval over the seeds (pchc_rsl.evaluation.statistics.paired_log_ratio).
+the ends learn from fewer samples and lag the middle), the training reward (rsl-rl's Train/mean_reward over the
+run's last 10 iterations: sampled actions, sampled preferences, the training pushes), and the hypervolume of the
+objective returns over the preferences (whether the policy trades the objectives along lambda; its reference point,
+unless given, is each objective's worst return over every run of the study less a tenth of its spread). Each gets
+the study's paired log ratio gate / PCI with a 95% Student-t interval over the seeds
+(pchc_rsl.evaluation.statistics.paired_log_ratio).
 """
 
 from __future__ import annotations
@@ -31,6 +34,7 @@ from pchc_rsl.evaluation import evaluation_config, evenly_spaced_preferences, lo
 from pchc_rsl.evaluation.group_returns import first_episode_returns
 from pchc_rsl.evaluation.statistics import paired_log_ratio
 from pchc_rsl.evaluation.training_plots import read_scalars
+from pchc_rsl.pareto import hypervolume
 from pchc_rsl.utils.files import write_json
 
 
@@ -63,21 +67,36 @@ def evaluate_run(checkpoint: str, preferences: int, num_envs: int, pushes: str) 
     return {"checkpoint": checkpoint, "per_preference": rows, "training_reward": float(rewards[-10:].mean())}
 
 
-def run_measures(result: dict) -> dict:
-    """The task return averaged over the preferences, the ends' share (ends' mean over the middle's) and the
-    training reward."""
+def objective_points(result: dict) -> np.ndarray:
+    """[preferences, objectives] the run's objective returns (every group but the task)."""
+    names = [k for k in result["per_preference"][0] if k not in ("preference", "task", "falls", "episode_s")]
+    return np.array([[row[n] for n in names] for row in result["per_preference"]])
+
+
+def reference_point(results: list[dict]) -> list[float]:
+    """Each objective's worst return over the runs, less a tenth of its spread (so that no run's worst point is
+    lost on the boundary)."""
+    points = np.concatenate([objective_points(r) for r in results])
+    low, high = points.min(axis=0), points.max(axis=0)
+    return (low - 0.1 * np.maximum(high - low, 1e-9)).tolist()
+
+
+def run_measures(result: dict, reference: list[float]) -> dict:
+    """The task return averaged over the preferences, the ends' share (ends' mean over the middle's), the training
+    reward and the hypervolume of the objective returns."""
     task = np.array([row["task"] for row in result["per_preference"]])
     middle = task[len(task) // 2]
     return {"mean_task_return": float(task.mean()), "ends_share": float((task[0] + task[-1]) / 2 / middle),
-            "training_reward": result["training_reward"]}
+            "training_reward": result["training_reward"],
+            "hypervolume": hypervolume(objective_points(result), reference)}
 
 
-def compare(pci: list[dict], gate: list[dict]) -> dict:
+def compare(pci: list[dict], gate: list[dict], reference: list[float]) -> dict:
     """Paired log ratios gate / PCI of each measure (positive measures only; otherwise the mean difference)."""
     out = {}
-    for measure in ("mean_task_return", "ends_share", "training_reward"):
-        a = [run_measures(r)[measure] for r in gate]
-        b = [run_measures(r)[measure] for r in pci]
+    for measure in ("mean_task_return", "ends_share", "training_reward", "hypervolume"):
+        a = [run_measures(r, reference)[measure] for r in gate]
+        b = [run_measures(r, reference)[measure] for r in pci]
         if min(a + b) > 0:
             out[measure] = paired_log_ratio(a, b)
         else:
@@ -86,7 +105,7 @@ def compare(pci: list[dict], gate: list[dict]) -> dict:
     return out
 
 
-def markdown(pci: list[dict], gate: list[dict], comparison: dict) -> str:
+def markdown(pci: list[dict], gate: list[dict], comparison: dict, reference: list[float]) -> str:
     lines = ["| run | preference | task return | " + " | ".join(
         k for k in pci[0]["per_preference"][0] if k not in ("preference", "task", "falls", "episode_s"))
         + " | falls | episode (s) |", "|---|---|---|---|---|---|---|"]
@@ -102,7 +121,8 @@ def markdown(pci: list[dict], gate: list[dict], comparison: dict) -> str:
     for label, results in (("PCI", pci), ("gate", gate)):
         for result in results:
             lines.append(f"- {label} {result['checkpoint']}: " + ", ".join(
-                f"{k} {v:.3f}" for k, v in run_measures(result).items()))
+                f"{k} {v:.4g}" for k, v in run_measures(result, reference).items()))
+    lines.append("- hypervolume's reference point: (" + ", ".join(f"{v:.3f}" for v in reference) + ")")
     for measure, stats in comparison.items():
         if "ratio" in stats:
             lines.append(f"- {measure}: gate / PCI {stats['ratio']:.3f} [{stats['ratio_ci95'][0]:.3f}, "
@@ -121,6 +141,8 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--preferences", type=int, default=5)
     parser.add_argument("--num-envs", type=int, default=32, help="first episodes per preference")
     parser.add_argument("--pushes", default="off", help="off (default), or one of the task's push presets")
+    parser.add_argument("--reference-point", type=lambda t: [float(v) for v in t.split(",")], metavar="R1,R2",
+                        help="the hypervolume's reference point (default: from the runs' worst returns)")
     parser.add_argument("--json", help="write the runs' rows and the intervals here")
     args = parser.parse_args(argv)
     if len(args.pci) != len(args.gate):
@@ -128,10 +150,11 @@ def main(argv: list[str] | None = None) -> dict:
     paths = {name: [checkpoint_of(run, args.iteration) for run in getattr(args, name)] for name in ("pci", "gate")}
     results = {name: [evaluate_run(p, args.preferences, args.num_envs, args.pushes) for p in ckpts]
                for name, ckpts in paths.items()}
-    comparison = compare(results["pci"], results["gate"])
-    print(markdown(results["pci"], results["gate"], comparison))
-    report = {"settings": vars(args), **results, "measures": {
-        name: [run_measures(r) for r in rs] for name, rs in results.items()}, "gate_over_pci": comparison}
+    reference = args.reference_point or reference_point(results["pci"] + results["gate"])
+    comparison = compare(results["pci"], results["gate"], reference)
+    print(markdown(results["pci"], results["gate"], comparison, reference))
+    report = {"settings": vars(args), **results, "reference_point": reference, "measures": {
+        name: [run_measures(r, reference) for r in rs] for name, rs in results.items()}, "gate_over_pci": comparison}
     if args.json:
         write_json(args.json, report)
     return report
