@@ -1,4 +1,4 @@
-"""tools/studies/g1_pci_vs_gated.py: each run's two measures and their paired ratios, against hand-worked values."""
+"""tools/studies/g1_pci_vs_gated.py: each run's measures and their paired ratios, against hand-worked values."""
 
 import math
 
@@ -45,3 +45,11 @@ def test_the_hypervolume_is_the_area_the_objective_returns_dominate():
 def test_the_default_reference_point_lies_a_tenth_of_the_spread_below_the_worst_return():
     runs = [run([1, 1], objectives=[(-1.0, 1.0), (-3.0, 2.0)]), run([1, 1], objectives=[(-5.0, 0.0), (-2.0, 3.0)])]
     assert study.reference_point(runs) == pytest.approx([-5.4, -0.3])
+
+
+def test_the_table_has_a_column_per_objective():
+    result = run([1, 2, 3])
+    table = study.markdown([result], [result], study.compare([result], [result], [-2.0, 0.0]), [-2.0, 0.0])
+    header, rule, first = table.splitlines()[:3]
+    assert header.count("|") == rule.count("|") == first.count("|") == 8  # run, preference, task, 2 objectives, 2
+    assert "| (1.00, 0.00) | 1.00 | -1.000 | 1.000 | 100% | 1.00 |" in first

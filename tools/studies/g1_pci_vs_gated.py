@@ -2,7 +2,7 @@
 PCI's lambda-routed experts from losing the data they need?
 
     python tools/studies/g1_pci_vs_gated.py --pci RUN_S1 RUN_S2 ... --gate RUN_S1 RUN_S2 ... --iteration 149 \
-        --json docs/results/g1_pci_vs_gated.json
+        --pushes mild --json docs/results/data/g1_pci_vs_gated/pushes-mild.json
 
 On MO-Gym tasks PCI's experts are disjoint networks, and its routing sends each end of the simplex to its own
 experts: there it loses to the gate (docs/results/mo_study.md). On the G1 every expert reads a shared history
@@ -37,6 +37,8 @@ from pchc_rsl.evaluation.training_plots import read_scalars
 from pchc_rsl.pareto import hypervolume
 from pchc_rsl.utils.files import write_json
 
+NOT_OBJECTIVES = ("preference", "task", "falls", "episode_s")
+
 
 def checkpoint_of(run: str, iteration: int) -> str:
     path = os.path.join(run, f"model_{iteration}.pt")
@@ -47,7 +49,8 @@ def checkpoint_of(run: str, iteration: int) -> str:
 
 
 def evaluate_run(checkpoint: str, preferences: int, num_envs: int, pushes: str) -> dict:
-    """Per preference: mean task and objective returns, fall share and episode length in seconds."""
+    """Per preference: mean task and objective returns, fall share and episode length in seconds; and the run's
+    training reward."""
     config = task_config_of(checkpoint, "g1-", "g1_pci_vs_gated", "a G1 task")
     cfg = evaluation_config(config, "mild" if pushes == "off" else pushes, num_envs, seed=0)
     cfg.env.push.enabled = pushes != "off"
@@ -69,7 +72,7 @@ def evaluate_run(checkpoint: str, preferences: int, num_envs: int, pushes: str) 
 
 def objective_points(result: dict) -> np.ndarray:
     """[preferences, objectives] the run's objective returns (every group but the task)."""
-    names = [k for k in result["per_preference"][0] if k not in ("preference", "task", "falls", "episode_s")]
+    names = [k for k in result["per_preference"][0] if k not in NOT_OBJECTIVES]
     return np.array([[row[n] for n in names] for row in result["per_preference"]])
 
 
@@ -106,14 +109,13 @@ def compare(pci: list[dict], gate: list[dict], reference: list[float]) -> dict:
 
 
 def markdown(pci: list[dict], gate: list[dict], comparison: dict, reference: list[float]) -> str:
-    lines = ["| run | preference | task return | " + " | ".join(
-        k for k in pci[0]["per_preference"][0] if k not in ("preference", "task", "falls", "episode_s"))
-        + " | falls | episode (s) |", "|---|---|---|---|---|---|---|"]
+    objective_names = [k for k in pci[0]["per_preference"][0] if k not in NOT_OBJECTIVES]
+    lines = ["| run | preference | task return | " + " | ".join(objective_names) + " | falls | episode (s) |",
+             "|---" * (5 + len(objective_names)) + "|"]
     for label, results in (("PCI", pci), ("gate", gate)):
         for result in results:
             for row in result["per_preference"]:
-                objectives = [f"{v:.3f}" for k, v in row.items() if k not in ("preference", "task", "falls",
-                                                                              "episode_s")]
+                objectives = [f"{row[k]:.3f}" for k in objective_names]
                 lines.append(f"| {label} {result['checkpoint']} | ({row['preference'][0]:.2f}, "
                              f"{row['preference'][1]:.2f}) | {row['task']:.2f} | " + " | ".join(objectives)
                              + f" | {100 * row['falls']:.0f}% | {row['episode_s']:.2f} |")
