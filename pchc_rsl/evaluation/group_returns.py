@@ -8,6 +8,21 @@ from __future__ import annotations
 
 import torch
 
+from pchc_rsl.evaluation.checkpoint import evaluation_config, loaded_policy, task_config_of
+
+
+def policy_under_pushes(checkpoint: str, pushes: str, num_envs: int, tool: str):
+    """A G1 checkpoint's (config, runner, policy) under the task's evaluation preset, pushed as the preset ``pushes``
+    names or not at all ("off"). A preset the task lacks stops ``tool`` with one line naming --pushes."""
+    config = task_config_of(checkpoint, "g1-", tool, "a G1 task")
+    try:
+        cfg = evaluation_config(config, "mild" if pushes == "off" else pushes, num_envs, seed=0)
+    except ValueError as error:
+        raise SystemExit(f"{tool}: --pushes: {error}") from None
+    cfg.env.push.enabled = pushes != "off"
+    runner, policy = loaded_policy(checkpoint, cfg)
+    return cfg, runner, policy
+
 
 def first_episode_returns(env, policy, preference) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
     """[N, groups] each env's first episode's summed reward groups (task first, then the objectives), [N] bool

@@ -15,9 +15,8 @@ from __future__ import annotations
 
 import argparse
 
-from pchc_rsl.evaluation import evaluation_config, loaded_policy, task_config_of
 from pchc_rsl.evaluation import aggregate, evenly_spaced_preferences, format_metric
-from pchc_rsl.evaluation.group_returns import first_episode_returns
+from pchc_rsl.evaluation.group_returns import first_episode_returns, policy_under_pushes
 
 
 def main(argv: list[str] | None = None) -> dict:
@@ -28,13 +27,7 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--preferences", type=int, default=5)
     parser.add_argument("--by-outcome", action="store_true", help="the returns of fallen and of standing episodes")
     args = parser.parse_args(argv)
-    config = task_config_of(args.checkpoint, "g1-", "objective_returns", "a G1 task")
-    try:
-        cfg = evaluation_config(config, "mild" if args.pushes == "off" else args.pushes, args.num_envs, seed=0)
-    except ValueError as error:
-        raise SystemExit(f"objective_returns: --pushes: {error}") from None
-    cfg.env.push.enabled = args.pushes != "off"
-    runner, policy = loaded_policy(args.checkpoint, cfg)
+    cfg, runner, policy = policy_under_pushes(args.checkpoint, args.pushes, args.num_envs, "objective_returns")
     names = ["task", *cfg.env.objective_names]
     print(f"Undiscounted episode return of each reward group, pushes {args.pushes}, {args.num_envs} episodes per "
           f"preference ({args.checkpoint}); mean ± 95% interval half-width")

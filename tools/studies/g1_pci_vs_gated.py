@@ -26,15 +26,15 @@ from __future__ import annotations
 
 import argparse
 import os
-import re
 
 import numpy as np
 
-from pchc_rsl.evaluation import evaluation_config, evenly_spaced_preferences, loaded_policy, task_config_of
-from pchc_rsl.evaluation.group_returns import first_episode_returns
+from pchc_rsl.evaluation import evenly_spaced_preferences
+from pchc_rsl.evaluation.group_returns import first_episode_returns, policy_under_pushes
 from pchc_rsl.evaluation.statistics import paired_log_ratio
 from pchc_rsl.evaluation.training_plots import read_scalars
 from pchc_rsl.pareto import hypervolume
+from pchc_rsl.training.run_folder import checkpoints_in
 from pchc_rsl.utils.files import write_json
 
 NOT_OBJECTIVES = ("preference", "task", "falls", "episode_s")
@@ -43,18 +43,15 @@ NOT_OBJECTIVES = ("preference", "task", "falls", "episode_s")
 def checkpoint_of(run: str, iteration: int) -> str:
     path = os.path.join(run, f"model_{iteration}.pt")
     if not os.path.isfile(path):
-        saved = sorted(int(m.group(1)) for f in os.listdir(run) if (m := re.fullmatch(r"model_(\d+)\.pt", f)))
-        raise SystemExit(f"g1_pci_vs_gated: {path} does not exist (saved iterations: {saved})")
+        saved = ", ".join(os.path.basename(p) for p in checkpoints_in(run)) or "none"
+        raise SystemExit(f"g1_pci_vs_gated: {path} does not exist (saved: {saved})")
     return path
 
 
 def evaluate_run(checkpoint: str, preferences: int, num_envs: int, pushes: str) -> dict:
     """Per preference: mean task and objective returns, fall share and episode length in seconds; and the run's
     training reward."""
-    config = task_config_of(checkpoint, "g1-", "g1_pci_vs_gated", "a G1 task")
-    cfg = evaluation_config(config, "mild" if pushes == "off" else pushes, num_envs, seed=0)
-    cfg.env.push.enabled = pushes != "off"
-    runner, policy = loaded_policy(checkpoint, cfg)
+    cfg, runner, policy = policy_under_pushes(checkpoint, pushes, num_envs, "g1_pci_vs_gated")
     env = runner.env
     names = ["task", *cfg.env.objective_names]
     rows = []
@@ -94,12 +91,13 @@ def run_measures(result: dict, reference: list[float]) -> dict:
             "hypervolume": hypervolume(objective_points(result), reference)}
 
 
-def compare(pci: list[dict], gate: list[dict], reference: list[float]) -> dict:
-    """Paired log ratios gate / PCI of each measure (positive measures only; otherwise the mean difference)."""
+def compare(pci: list[dict], gate: list[dict]) -> dict:
+    """Paired log ratios gate / PCI of each measure (run_measures of each run; positive measures only, otherwise
+    the mean difference)."""
     out = {}
-    for measure in ("mean_task_return", "ends_share", "training_reward", "hypervolume"):
-        a = [run_measures(r, reference)[measure] for r in gate]
-        b = [run_measures(r, reference)[measure] for r in pci]
+    for measure in pci[0]:
+        a = [m[measure] for m in gate]
+        b = [m[measure] for m in pci]
         if min(a + b) > 0:
             out[measure] = paired_log_ratio(a, b)
         else:
@@ -108,22 +106,23 @@ def compare(pci: list[dict], gate: list[dict], reference: list[float]) -> dict:
     return out
 
 
-def markdown(pci: list[dict], gate: list[dict], comparison: dict, reference: list[float]) -> str:
+def markdown(results: dict, measures: dict, comparison: dict, reference: list[float]) -> str:
+    """The runs' rows, each run's measures and the paired ratios, as printed."""
+    pci, gate = results["pci"], results["gate"]
     objective_names = [k for k in pci[0]["per_preference"][0] if k not in NOT_OBJECTIVES]
     lines = ["| run | preference | task return | " + " | ".join(objective_names) + " | falls | episode (s) |",
              "|---" * (5 + len(objective_names)) + "|"]
-    for label, results in (("PCI", pci), ("gate", gate)):
-        for result in results:
+    for label, runs in (("PCI", pci), ("gate", gate)):
+        for result in runs:
             for row in result["per_preference"]:
                 objectives = [f"{row[k]:.3f}" for k in objective_names]
                 lines.append(f"| {label} {result['checkpoint']} | ({row['preference'][0]:.2f}, "
                              f"{row['preference'][1]:.2f}) | {row['task']:.2f} | " + " | ".join(objectives)
                              + f" | {100 * row['falls']:.0f}% | {row['episode_s']:.2f} |")
     lines.append("")
-    for label, results in (("PCI", pci), ("gate", gate)):
-        for result in results:
-            lines.append(f"- {label} {result['checkpoint']}: " + ", ".join(
-                f"{k} {v:.4g}" for k, v in run_measures(result, reference).items()))
+    for label, name in (("PCI", "pci"), ("gate", "gate")):
+        for result, measured in zip(results[name], measures[name]):
+            lines.append(f"- {label} {result['checkpoint']}: " + ", ".join(f"{k} {v:.4g}" for k, v in measured.items()))
     lines.append("- hypervolume's reference point: (" + ", ".join(f"{v:.3f}" for v in reference) + ")")
     for measure, stats in comparison.items():
         if "ratio" in stats:
@@ -153,10 +152,11 @@ def main(argv: list[str] | None = None) -> dict:
     results = {name: [evaluate_run(p, args.preferences, args.num_envs, args.pushes) for p in ckpts]
                for name, ckpts in paths.items()}
     reference = args.reference_point or reference_point(results["pci"] + results["gate"])
-    comparison = compare(results["pci"], results["gate"], reference)
-    print(markdown(results["pci"], results["gate"], comparison, reference))
-    report = {"settings": vars(args), **results, "reference_point": reference, "measures": {
-        name: [run_measures(r, reference) for r in rs] for name, rs in results.items()}, "gate_over_pci": comparison}
+    measures = {name: [run_measures(r, reference) for r in runs] for name, runs in results.items()}
+    comparison = compare(measures["pci"], measures["gate"])
+    print(markdown(results, measures, comparison, reference))
+    report = {"settings": vars(args), **results, "reference_point": reference, "measures": measures,
+              "gate_over_pci": comparison}
     if args.json:
         write_json(args.json, report)
     return report
