@@ -544,3 +544,5 @@ def test_amp_slope_moves_the_joint_columns_of_every_frame_and_never_the_root_vel
     names = ["left_hip_pitch_joint", "left_hip_roll_joint", "left_knee_joint"]
     assert columns(names, 2).tolist() == [True, False, True] * 2
     assert columns(names, 2, extra=3).tolist() == [True, False, True, False, False, False] * 2
+    every = load_tool("studies/amp_slope").joint_columns
+    assert every(names, 2, extra=3).tolist() == [True, True, True, False, False, False] * 2

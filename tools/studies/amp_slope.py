@@ -65,11 +65,17 @@ def read_along_the_way(style: AMPStyle, held: torch.Tensor, reference: torch.Ten
         return {"shares": shares, "d_policy": float(d(held).median()), "d_reference": float(d(reference).median())}
 
 
+def joint_columns(joint_names: list[str], window: int, extra: int = 0, parts: tuple[str, ...] | None = None
+                  ) -> torch.Tensor:
+    """[window * (joints + extra)] bool: in every frame, the columns of the joints whose names hold one of ``parts``
+    (every joint without); ``extra``: columns after the joints in each frame (the root velocity), never moved."""
+    chosen = [parts is None or any(k in j for k in parts) for j in joint_names]
+    return torch.tensor(chosen + [False] * extra).repeat(window)
+
+
 def sagittal_leg_columns(joint_names: list[str], window: int, extra: int = 0) -> torch.Tensor:
-    """[window * (joints + extra)] bool: the hip pitch, knee and ankle pitch columns of every frame (the crouch);
-    ``extra``: columns after the joints in each frame (the root velocity), not moved."""
-    legs = [any(k in j for k in ("hip_pitch", "knee", "ankle_pitch")) for j in joint_names]
-    return torch.tensor(legs + [False] * extra).repeat(window)
+    """The hip pitch, knee and ankle pitch columns of every frame (the crouch)."""
+    return joint_columns(joint_names, window, extra, ("hip_pitch", "knee", "ankle_pitch"))
 
 
 def main() -> None:
@@ -93,8 +99,7 @@ def main() -> None:
     print(f"{args.checkpoint}: {len(train)} training and {len(held)} held-out policy windows; {args.updates} updates "
           f"per setting (batch {resolved.get('batch_size', 512)}); style reward as a share of its weight c")
     extra = train.shape[1] // resolved["window"] - len(resolved["joint_names"])  # the root velocity's columns
-    every_joint = torch.tensor([True] * len(resolved["joint_names"]) + [False] * extra).repeat(resolved["window"])
-    paths = {"every joint": every_joint,
+    paths = {"every joint": joint_columns(resolved["joint_names"], resolved["window"], extra),
              "sagittal leg joints": sagittal_leg_columns(resolved["joint_names"], resolved["window"], extra)}
     print("| discriminator | moved | " + " | ".join(f"f = {f:g}" for f in SHARES)
           + " | median D, policy | median D, clips |")
