@@ -30,10 +30,11 @@ def amp_frame_layout(num_joints: int, root_velocity: bool) -> list[tuple[str, in
 
 class ObservationBuffers:
     """Frame histories, newest first: s_t = [angular velocity, gravity in base frame, q - q_default, dq, a_{t-1},
-    eta (, command)]; the AMP window holds the actuated joint positions (and the base's velocity), oldest first."""
+    eta (, command)]; the AMP window holds the actuated joint positions (and the base's velocity), oldest first.
+    ``dt``: the control step (s), over which the base's change of position is its velocity in the AMP frame."""
 
     def __init__(self, num_envs: int, num_joints: int, history_length: int, amp_window: int, use_command: bool,
-                 noise: float, generator: torch.Generator, amp_root_velocity: bool = False, dt: float = 0.02) -> None:
+                 noise: float, generator: torch.Generator, *, dt: float, amp_root_velocity: bool = False) -> None:
         self.use_command, self.noise, self.generator = use_command, noise, generator
         self.frame_layout = frame_layout(num_joints, use_command)
         self.amp_frame_layout = amp_frame_layout(num_joints, amp_root_velocity)
