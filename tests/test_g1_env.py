@@ -522,6 +522,63 @@ def test_com_r_disturb_charges_the_whole_body_com_instead_of_the_pelvis():
     assert g1_rewards.disturbance(env, com=True).item() == pytest.approx(-0.2, abs=1e-6)
 
 
+def test_r_disturb_capture_point_option_charges_the_capture_point_against_the_feet_on_the_ground():
+    """COM 0.81 m up moving at (0.9, 0) m/s: omega = sqrt(9.81 / 0.81) = 3.48/s, capture point 0.258 m ahead of the
+    COM. Feet at (0.1, 0.1) and (0.5, 0.3): both down, it lies 0.042 m past their middle in x, 0 in y; only the
+    front one down, 0.242 m short of it in x and 0.1 in y; neither down, both count. The pelvis stays on its push
+    origin at rest, so r_disturb alone is 0 and the option adds -2 x the distance; outside the window, nothing."""
+    from pchc_rsl.envs.g1 import rewards as g1_rewards
+
+    env = make_walk_env(num_envs=1)
+    env.commands[:] = 0.0
+    push_now(env)
+    robot = env.robot
+    robot.base_pos = robot.base_pos.clone()
+    robot.base_pos[0, :2] = env.pushes.origin[0]
+    robot.base_lin_vel_w = torch.zeros_like(robot.base_lin_vel_w)
+    robot.com_pos = torch.tensor([[0.0, 0.2, 0.81]])
+    robot.com_vel = torch.tensor([[0.9, 0.0, 0.0]])
+    robot.foot_pos = torch.tensor([[[0.1, 0.1, 0.0], [0.5, 0.3, 0.0]]])
+    ahead = 0.9 / math.sqrt(9.81 / 0.81)
+    assert g1_rewards.disturbance(env).item() == pytest.approx(0.0, abs=1e-6)
+    for contact, support in (([True, True], (0.3, 0.2)), ([False, True], (0.5, 0.3)), ([False, False], (0.3, 0.2))):
+        env.feet.contact = torch.tensor([contact])
+        distance = math.hypot(ahead - support[0], 0.2 - support[1])
+        assert g1_rewards.disturbance(env, capture_point=2.0).item() == pytest.approx(-2 * distance, abs=1e-5)
+    env.pushes.window[:] = 0
+    assert g1_rewards.disturbance(env, capture_point=2.0).item() == 0.0
+
+
+def test_com_velocity_sensor_is_the_rate_of_change_of_the_whole_body_com():
+    """On a random state of the model: the com_vel sensor against the COM's change of position when the joints and
+    the base move by qvel * h (h = 1e-6 s), computed by MuJoCo's kinematics alone; and the env reads that sensor."""
+    import mujoco
+    import numpy as np
+
+    from pchc_rsl.robots.g1.constants import WALK_JOINTS
+    from pchc_rsl.robots.g1.model import build_g1_model
+
+    model = build_g1_model(WALK_JOINTS)
+    data = mujoco.MjData(model)
+    rng = np.random.default_rng(0)
+    data.qpos[2] = 0.8
+    data.qvel[:] = rng.normal(size=model.nv)
+    mujoco.mj_forward(model, data)
+    sensor = model.sensor("com_vel")
+    reported = data.sensordata[sensor.adr[0]: sensor.adr[0] + 3].copy()
+    pelvis, h = model.body("pelvis").id, 1e-6
+    before = data.subtree_com[pelvis].copy()
+    mujoco.mj_integratePos(model, data.qpos, data.qvel, h)
+    mujoco.mj_kinematics(model, data)
+    mujoco.mj_comPos(model, data)
+    np.testing.assert_allclose(reported, (data.subtree_com[pelvis] - before) / h, atol=1e-3)
+
+    env = make_walk_env(num_envs=1)
+    env.step(torch.zeros(1, env.num_actions))
+    column = env.model.sensor("com_vel").adr[0]
+    torch.testing.assert_close(env.robot.com_vel[0], env.physics.substep_sensors[0, -1, column: column + 3].float())
+
+
 def test_reset_restores_a_valid_standing_state():
     env = make_walk_env(num_envs=2)
     for _ in range(5):

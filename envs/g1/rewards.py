@@ -243,7 +243,8 @@ def stride(env, along_heading: bool = True, min_command: float = 0.1, speed_std:
     return reward - charged_fall(env, fall_cost)
 
 
-def disturbance(env, vertical: bool = False, fall_cost: float = 0.0, com: bool = False) -> torch.Tensor:
+def disturbance(env, vertical: bool = False, fall_cost: float = 0.0, com: bool = False,
+                capture_point: float = 0.0) -> torch.Tensor:
     """The paper's r_disturb = 1_after-disturb (-||x_base - x_ref|| - |(v_base - v_ref) . d|).
 
     Both terms are relative to the same reference: x_ref = x_last + v_ref t moves at the commanded velocity v_ref
@@ -257,13 +258,34 @@ def disturbance(env, vertical: bool = False, fall_cost: float = 0.0, com: bool =
     Not in the paper's equation; why and what it changed: docs/design.md, "Fall costs".
 
     ``com``: x_base is the whole-body COM instead of the pelvis, the point whose displacement Table I reports, so
-    the reward charges what the table measures (docs/design.md, "The COM option of r_disturb")."""
+    the reward charges what the table measures (docs/design.md, "The COM option of r_disturb").
+
+    ``capture_point`` (a weight; 0: off): inside the window also charges this times ``capture_point_error``. The terms
+    above charge the distance from where the robot was pushed, so the step that would catch it, which carries it
+    further, costs under them; this one pays that step as it lands. Not in the paper's equation: docs/design.md,
+    "The capture point"."""
     pushes = env.pushes
     position = pushes.com_deviation(env.robot) if com else pushes.deviation(env.robot)
     if vertical:
         position = torch.cat([position, pushes.height_change(env.robot).unsqueeze(-1)], dim=-1)
-    reward = pushes.active * (-position.norm(dim=-1) - pushes.relative_velocity_along_push(env.robot))
+    charged = position.norm(dim=-1) + pushes.relative_velocity_along_push(env.robot)
+    if capture_point:
+        charged = charged + capture_point * capture_point_error(env)
+    reward = -(pushes.active * charged)
     return reward - charged_fall(env, fall_cost)
+
+
+def capture_point_error(env, gravity: float = 9.81) -> torch.Tensor:
+    """[N] how far the capture point of the whole-body COM lies from the middle of the feet on the ground (of both
+    feet when neither is), m. x_cp = x_com + v_com / omega, omega = sqrt(g / z_com) (the linear inverted pendulum):
+    where a foot must land for the robot to come to rest over it."""
+    robot = env.robot
+    omega = (gravity / robot.com_pos[:, 2].clamp(min=0.1)).sqrt()
+    point = robot.com_pos[:, :2] + robot.com_vel[:, :2] / omega.unsqueeze(-1)
+    on_ground = env.feet.contact.float()  # [N, 2]
+    weights = torch.where(on_ground.sum(-1, keepdim=True) > 0, on_ground, torch.ones_like(on_ground))
+    support = (robot.foot_pos[..., :2] * weights.unsqueeze(-1)).sum(1) / weights.sum(-1, keepdim=True)
+    return (point - support).norm(dim=-1)
 
 
 def charged_fall(env, fall_cost: float) -> torch.Tensor | float:

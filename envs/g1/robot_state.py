@@ -43,6 +43,7 @@ class RobotState:
             "foot_vel": [columns(f"{s}_linvel") for s in feet],  # [2, 3]
             "foot_touch": [columns(f"{s}_touch")[0] for s in feet],  # [2]
             "com_pos": columns("com_pos"),  # [3]
+            "com_vel": columns("com_vel"),  # [3]
             "torque": [columns(f"{j}_torque")[0] for j in joints],  # [J]
         }
         self.sensor_index = {key: torch.tensor(value, device=dev) for key, value in index.items()}
@@ -69,6 +70,7 @@ class RobotState:
         self.foot_vel = sensors[:, -1, index["foot_vel"]]
         self.foot_touch_substeps = sensors[:, :, index["foot_touch"]]  # [N, K, 2]
         self.com_pos = sensors[:, -1, index["com_pos"]]  # [N, 3]
+        self.com_vel = sensors[:, -1, index["com_vel"]]  # [N, 3], world frame
         self.torques_substeps = sensors[:, :, index["torque"]]  # [N, K, J]
         self.joint_vel_substeps = p.substep_qvel[:, :, self.joint_dof_idx].float()  # [N, K, J]
         self.torques = self.torques_substeps[:, -1]

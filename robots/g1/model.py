@@ -132,6 +132,8 @@ def build_g1_model(joints: list[str], timestep: float = 0.002, lean_feet: bool =
                         objtype=mujoco.mjtObj.mjOBJ_SITE, objname=sole.name)
     spec.add_sensor(name="com_pos", type=mujoco.mjtSensor.mjSENS_SUBTREECOM, objtype=mujoco.mjtObj.mjOBJ_BODY,
                     objname="pelvis")
+    spec.add_sensor(name="com_vel", type=mujoco.mjtSensor.mjSENS_SUBTREELINVEL, objtype=mujoco.mjtObj.mjOBJ_BODY,
+                    objname="pelvis")
     for name in joints:
         spec.add_sensor(name=f"{name}_torque", type=mujoco.mjtSensor.mjSENS_ACTUATORFRC,
                         objtype=mujoco.mjtObj.mjOBJ_ACTUATOR, objname=name.replace("_joint", ""))
