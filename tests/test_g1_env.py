@@ -524,7 +524,7 @@ def test_com_r_disturb_charges_the_whole_body_com_instead_of_the_pelvis():
 
 def test_r_disturb_capture_point_option_charges_the_capture_point_against_the_feet_on_the_ground():
     """COM 0.81 m up moving at (0.9, 0) m/s: omega = sqrt(9.81 / 0.81) = 3.48/s, capture point 0.258 m ahead of the
-    COM. Feet at (0.1, 0.1) and (0.5, 0.3): both down, it lies 0.042 m past their middle in x, 0 in y; only the
+    COM. Feet at (0.1, 0.1) and (0.5, 0.3): both down, it lies 0.042 m short of their middle in x, 0 in y; only the
     front one down, 0.242 m short of it in x and 0.1 in y; neither down, both count. The pelvis stays on its push
     origin at rest, so r_disturb alone is 0 and the option adds -2 x the distance; outside the window, nothing."""
     from pchc_rsl.envs.g1 import rewards as g1_rewards
