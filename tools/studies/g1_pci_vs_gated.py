@@ -67,9 +67,14 @@ def evaluate_run(checkpoint: str, preferences: int, num_envs: int, pushes: str) 
     return {"checkpoint": checkpoint, "per_preference": rows, "training_reward": float(rewards[-10:].mean())}
 
 
+def objective_names(result: dict) -> list[str]:
+    """The run's objectives, in its rows' order: every reward group but the task."""
+    return [k for k in result["per_preference"][0] if k not in NOT_OBJECTIVES]
+
+
 def objective_points(result: dict) -> np.ndarray:
-    """[preferences, objectives] the run's objective returns (every group but the task)."""
-    names = [k for k in result["per_preference"][0] if k not in NOT_OBJECTIVES]
+    """[preferences, objectives] the run's objective returns."""
+    names = objective_names(result)
     return np.array([[row[n] for n in names] for row in result["per_preference"]])
 
 
@@ -109,13 +114,13 @@ def compare(pci: list[dict], gate: list[dict]) -> dict:
 def markdown(results: dict, measures: dict, comparison: dict, reference: list[float]) -> str:
     """The runs' rows, each run's measures and the paired ratios, as printed."""
     pci, gate = results["pci"], results["gate"]
-    objective_names = [k for k in pci[0]["per_preference"][0] if k not in NOT_OBJECTIVES]
-    lines = ["| run | preference | task return | " + " | ".join(objective_names) + " | falls | episode (s) |",
-             "|---" * (5 + len(objective_names)) + "|"]
+    names = objective_names(pci[0])
+    lines = ["| run | preference | task return | " + " | ".join(names) + " | falls | episode (s) |",
+             "|---" * (5 + len(names)) + "|"]
     for label, runs in (("PCI", pci), ("gate", gate)):
         for result in runs:
             for row in result["per_preference"]:
-                objectives = [f"{row[k]:.3f}" for k in objective_names]
+                objectives = [f"{row[k]:.3f}" for k in names]
                 lines.append(f"| {label} {result['checkpoint']} | ({row['preference'][0]:.2f}, "
                              f"{row['preference'][1]:.2f}) | {row['task']:.2f} | " + " | ".join(objectives)
                              + f" | {100 * row['falls']:.0f}% | {row['episode_s']:.2f} |")
